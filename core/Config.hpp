@@ -1,0 +1,68 @@
+// The validated content of an input deck (TOML). Produced by load_deck() in Deck.cpp, or
+// filled in directly by tests and scenarios. SI units throughout.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace tamp {
+
+struct RunSpec {
+  std::string name = "tamp";
+  double end_time = 0.1;          // s, simulated time
+  double output_interval = 0.0;   // s between HDF5 snapshots; 0 = final state only
+  double cfl = 0.3;               // Courant number, (0, 1]
+  double progress_interval = 2.0; // s of wall time between progress lines
+  long max_steps = 0;             // 0 = unlimited
+};
+
+struct SphSpec {
+  double spacing = 0.01;          // m, initial particle spacing dp
+  double h_factor = 1.3;          // h = h_factor * spacing, kernel support 2h (Wendland C2)
+  double alpha = 0.5;             // Monaghan artificial viscosity, linear term
+  double beta = 0.0;              // Monaghan artificial viscosity, quadratic term
+  double artificial_stress = 0.3; // Gray-Monaghan-Swift epsilon, 0 = off
+  double artificial_stress_n = 2.55; // exponent n of f_ab = W(r)/W(dp)
+  int regularise_every = 0;       // steps between Shepard stress regularisation, 0 = off
+  bool kernel_correction = true;  // first-order kernel gradient correction
+  double neighbour_skin = 0.2;    // Verlet skin as a fraction of h
+  double axis_radius_factor = 0.5;// 1/r regularised as 1/max(r, factor*h)
+};
+
+struct MaterialSpec {
+  std::string name;
+  std::string model = "elastic";  // "elastic" | "mohr-coulomb" | "tresca"
+  double density = 0;             // kg/m3 (deck gives density or unit_weight)
+  double shear_modulus = 0;       // G, Pa
+  double poisson_ratio = 0;       // nu, [0, 0.5)
+  double cohesion = 0;            // c (Su for tresca), Pa
+  double phi_deg = 0;             // friction angle, degrees, [0, 90)
+  double psi_deg = 0;             // dilation angle, degrees, [0, phi]
+  double tension_cutoff = 0;      // Pa, >= 0
+};
+
+struct BlockSpec {
+  std::string material;           // name of a MaterialSpec
+  double r_min = 0, r_max = 0;    // m
+  double z_min = 0, z_max = 0;    // m
+  double velocity_r = 0, velocity_z = 0; // m/s, initial velocity
+};
+
+enum class WallType { None, Fixed, Roller };
+
+struct WallSpec {
+  WallType type = WallType::None;
+  double position = 0;            // m: z of the bottom/top wall, r of the outer wall
+};
+
+struct Config {
+  std::string source_file;        // the deck this came from ("" when built in code)
+  RunSpec run;
+  SphSpec sph;
+  double gravity = 9.81;          // m/s2, acting in -z
+  double damping = 0.0;           // 1/s, mass-proportional damping (dynamic relaxation)
+  std::vector<MaterialSpec> materials;
+  std::vector<BlockSpec> blocks;
+  WallSpec bottom, top, outer;    // the axis r = 0 is always a symmetry line
+};
+
+}  // namespace tamp

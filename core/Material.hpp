@@ -1,0 +1,38 @@
+// Plain-data material parameters, usable inside kernels on every back end.
+// Material dispatch in kernels is a switch on `model` (no virtual functions).
+#pragma once
+#include "core/Types.hpp"
+
+namespace tamp {
+
+enum ModelId : int {
+  MODEL_ELASTIC = 0,       // linear (hypo-)elastic, Jaumann rate
+  MODEL_MOHR_COULOMB = 1,  // elastic-perfectly plastic Mohr-Coulomb; Tresca when phi = 0
+};
+
+struct MaterialParams {
+  int model = MODEL_ELASTIC;
+  double density = 0;         // kg/m3, initial (reference) density
+  double bulk_modulus = 0;    // K, Pa
+  double shear_modulus = 0;   // G, Pa
+  double cohesion = 0;        // c, Pa (Su for Tresca)
+  double phi = 0;             // friction angle, rad, [0, pi/2)
+  double psi = 0;             // dilation angle, rad, [0, phi]
+  double tension_cutoff = 0;  // Pa, largest allowed mean stress (tension positive), >= 0;
+                              // for phi > 0 the apex c cot(phi) applies if smaller
+
+  KOKKOS_INLINE_FUNCTION double p_wave_modulus() const {
+    return bulk_modulus + 4.0 / 3.0 * shear_modulus;
+  }
+  // Compression (P) wave speed at the reference density, m/s.
+  KOKKOS_INLINE_FUNCTION double wave_speed() const {
+    return math::sqrt(p_wave_modulus() / density);
+  }
+};
+
+// K and G from Young-free engineering inputs (G, nu): K = 2G(1+nu)/(3(1-2nu)).
+inline double bulk_from_shear(double G, double nu) {
+  return 2.0 * G * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
+}
+
+}  // namespace tamp

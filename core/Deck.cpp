@@ -1,0 +1,664 @@
+// Input decks: TOML -> validated Config (see Deck.hpp for the layout), Config -> TOML.
+#include "core/Deck.hpp"
+
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <optional>
+#include <sstream>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <toml++/toml.h>
+
+namespace tamp {
+namespace {
+
+// Materials given by unit weight are converted with this g (not the deck's gravity), so
+// that a unit weight from a site report always means the same density.
+constexpr double kUnitWeightGravity = 9.81;
+
+// ---------------------------------------------------------------- formatting helpers
+
+// Shortest text that reads back to exactly x ("0.6", "1e+09", "-1800").
+std::string fmt_num(double x) {
+  if (std::isnan(x)) return "nan";
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof buf, x);
+  return std::string(buf, res.ptr);
+}
+
+// As fmt_num, but always a TOML float ("5.0" rather than "5").
+std::string fmt_float(double x) {
+  std::string s = fmt_num(x);
+  if (s.find_first_of(".eEn") == std::string::npos && s.find("inf") == std::string::npos)
+    s += ".0";
+  return s;
+}
+
+// A TOML basic string.
+std::string quote(std::string_view s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\b': out += "\\b"; break;
+      case '\t': out += "\\t"; break;
+      case '\n': out += "\\n"; break;
+      case '\f': out += "\\f"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (c < 0x20 || c == 0x7f) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04X", static_cast<unsigned>(c));
+          out += buf;
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+// A key as it would be written in TOML: bare when possible, quoted otherwise.
+std::string key_text(std::string_view k) {
+  bool bare = !k.empty();
+  for (const char c : k)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) bare = false;
+  return bare ? std::string(k) : quote(k);
+}
+
+const char* type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::string: return "string";
+    case toml::node_type::integer: return "integer";
+    case toml::node_type::floating_point: return "float";
+    case toml::node_type::boolean: return "boolean";
+    case toml::node_type::array: return "array";
+    case toml::node_type::table: return "table";
+    case toml::node_type::date: return "date";
+    case toml::node_type::time: return "time";
+    case toml::node_type::date_time: return "date-time";
+    default: return "nothing";
+  }
+}
+
+// The value of a node as the user would have written it (long tables/arrays shortened).
+std::string repr(const toml::node& n) {
+  std::string s;
+  switch (n.type()) {
+    case toml::node_type::string: s = quote(n.as_string()->get()); break;
+    case toml::node_type::integer: s = std::to_string(n.as_integer()->get()); break;
+    case toml::node_type::floating_point: s = fmt_float(n.as_floating_point()->get()); break;
+    case toml::node_type::boolean: s = n.as_boolean()->get() ? "true" : "false"; break;
+    case toml::node_type::array: {
+      s = "[";
+      bool first = true;
+      for (const auto& e : *n.as_array()) {
+        s += (first ? "" : ", ") + repr(e);
+        first = false;
+      }
+      s += "]";
+      break;
+    }
+    case toml::node_type::table: {
+      const auto& t = *n.as_table();
+      if (t.empty()) {
+        s = "{}";
+        break;
+      }
+      s = "{ ";
+      bool first = true;
+      for (const auto& [k, v] : t) {
+        s += (first ? "" : ", ") + key_text(k.str()) + " = " + repr(v);
+        first = false;
+      }
+      s += " }";
+      break;
+    }
+    default: {
+      std::ostringstream os;
+      n.visit([&os](const auto& v) { os << v; });
+      s = os.str();
+    }
+  }
+  constexpr std::size_t max_len = 100;
+  if (s.size() > max_len) s = s.substr(0, max_len - 3) + "...";
+  return s;
+}
+
+std::string join(const std::vector<std::string>& items, const std::string& sep) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size(); ++i) out += (i ? sep : "") + items[i];
+  return out;
+}
+
+// ---------------------------------------------------------------- ranges
+
+struct Range {
+  std::optional<double> lo, hi;
+  bool lo_open = false, hi_open = false;
+
+  bool contains(double x) const {
+    if (!std::isfinite(x)) return false;
+    if (lo && (lo_open ? !(x > *lo) : !(x >= *lo))) return false;
+    if (hi && (hi_open ? !(x < *hi) : !(x <= *hi))) return false;
+    return true;
+  }
+  // "0 <= nu < 0.5", "spacing > 0 (m)", "a finite number (m/s)".
+  std::string text(std::string_view name, std::string_view unit) const {
+    std::string s;
+    if (lo && hi)
+      s = fmt_num(*lo) + (lo_open ? " < " : " <= ") + std::string(name) + (hi_open ? " < " : " <= ") +
+          fmt_num(*hi);
+    else if (lo)
+      s = std::string(name) + (lo_open ? " > " : " >= ") + fmt_num(*lo);
+    else if (hi)
+      s = std::string(name) + (hi_open ? " < " : " <= ") + fmt_num(*hi);
+    else
+      s = "a finite number";
+    if (!unit.empty()) s += " (" + std::string(unit) + ")";
+    return s;
+  }
+};
+
+Range any() { return {}; }
+Range gt(double a) { return {a, std::nullopt, true, false}; }
+Range ge(double a) { return {a, std::nullopt, false, false}; }
+Range ge_lt(double a, double b) { return {a, b, false, true}; }
+Range ge_le(double a, double b) { return {a, b, false, false}; }
+Range gt_le(double a, double b) { return {a, b, true, false}; }
+
+// ---------------------------------------------------------------- error reporting
+
+class Reporter {
+ public:
+  explicit Reporter(std::string file) : file_(std::move(file)) {}
+
+  // "<file>: <path> = <value> <problem>; allowed: <allowed>"
+  [[noreturn]] void bad(const std::string& path, const std::string& value, const std::string& problem,
+                        const std::string& allowed) const {
+    throw DeckError(file_ + ": " + path + " = " + value + " " + problem + "; allowed: " + allowed);
+  }
+  [[noreturn]] void bad(const std::string& path, const toml::node& n, const std::string& problem,
+                        const std::string& allowed) const {
+    bad(path, repr(n), problem, allowed);
+  }
+  [[noreturn]] void wrong_type(const std::string& path, const toml::node& n,
+                               const std::string& allowed) const {
+    bad(path, n, std::string("has the wrong type (") + type_name(n) + ")", allowed);
+  }
+  [[noreturn]] void out_of_range(const std::string& path, const toml::node& n,
+                                 const std::string& allowed) const {
+    bad(path, n, "is out of range", allowed);
+  }
+  // "<file>: <path> is missing; required: <what>"
+  [[noreturn]] void missing(const std::string& path, const std::string& what) const {
+    throw DeckError(file_ + ": " + path + " is missing; required: " + what);
+  }
+
+ private:
+  std::string file_;
+};
+
+// A TOML table with a fixed set of allowed keys; any other key is an error.
+class Table {
+ public:
+  Table(const Reporter& rep, const toml::table& t, std::string prefix,
+        std::initializer_list<const char*> keys)
+      : rep_(rep), t_(t), prefix_(std::move(prefix)) {
+    for (const auto& [k, v] : t_) {
+      bool known = false;
+      for (const char* key : keys) known = known || k.str() == key;
+      if (!known) {
+        std::vector<std::string> names(keys.begin(), keys.end());
+        rep_.bad(path(k.str()), v, "is not a known key", join(names, ", "));
+      }
+    }
+  }
+
+  const Reporter& rep() const { return rep_; }
+  const toml::node* find(std::string_view key) const { return t_.get(key); }
+  std::string path(std::string_view key) const {
+    return prefix_.empty() ? key_text(key) : prefix_ + "." + key_text(key);
+  }
+
+ private:
+  const Reporter& rep_;
+  const toml::table& t_;
+  std::string prefix_;
+};
+
+// ---------------------------------------------------------------- typed readers
+
+std::optional<double> as_number(const toml::node& n) {
+  if (const auto* i = n.as_integer()) return static_cast<double>(i->get());
+  if (const auto* f = n.as_floating_point()) return f->get();
+  return std::nullopt;
+}
+
+std::optional<double> opt_number(const Table& t, std::string_view key, const Range& range,
+                                 std::string_view unit) {
+  const toml::node* n = t.find(key);
+  if (!n) return std::nullopt;
+  const std::string allowed = range.text(key, unit);
+  const auto x = as_number(*n);
+  if (!x) t.rep().wrong_type(t.path(key), *n, "a number, " + allowed);
+  if (!std::isfinite(*x)) t.rep().bad(t.path(key), *n, "is not a finite number", allowed);
+  if (!range.contains(*x)) t.rep().out_of_range(t.path(key), *n, allowed);
+  return x;
+}
+
+double number(const Table& t, std::string_view key, double fallback, const Range& range,
+              std::string_view unit) {
+  return opt_number(t, key, range, unit).value_or(fallback);
+}
+
+double required_number(const Table& t, std::string_view key, const Range& range,
+                       std::string_view unit) {
+  const auto x = opt_number(t, key, range, unit);
+  if (!x) t.rep().missing(t.path(key), range.text(key, unit));
+  return *x;
+}
+
+long long integer(const Table& t, std::string_view key, long long fallback, long long lo,
+                  long long hi) {
+  const toml::node* n = t.find(key);
+  if (!n) return fallback;
+  std::string allowed = std::string(key) + " >= " + std::to_string(lo);
+  if (hi != LLONG_MAX) allowed = std::to_string(lo) + " <= " + std::string(key) + " <= " + std::to_string(hi);
+  const auto* i = n->as_integer();
+  if (!i) t.rep().wrong_type(t.path(key), *n, "an integer, " + allowed);
+  if (i->get() < lo || i->get() > hi) t.rep().out_of_range(t.path(key), *n, allowed);
+  return i->get();
+}
+
+bool boolean(const Table& t, std::string_view key, bool fallback) {
+  const toml::node* n = t.find(key);
+  if (!n) return fallback;
+  const auto* b = n->as_boolean();
+  if (!b) t.rep().wrong_type(t.path(key), *n, "true or false");
+  return b->get();
+}
+
+std::optional<std::string> opt_string(const Table& t, std::string_view key,
+                                      const std::string& allowed) {
+  const toml::node* n = t.find(key);
+  if (!n) return std::nullopt;
+  const auto* s = n->as_string();
+  if (!s) t.rep().wrong_type(t.path(key), *n, allowed);
+  return s->get();
+}
+
+std::string required_string(const Table& t, std::string_view key, const std::string& allowed) {
+  auto s = opt_string(t, key, allowed);
+  if (!s) t.rep().missing(t.path(key), allowed);
+  return *s;
+}
+
+// One of a fixed set of strings.
+std::string choice(const Table& t, std::string_view key, const std::vector<std::string>& options,
+                   const char* what, std::optional<std::string> fallback) {
+  std::vector<std::string> quoted;
+  for (const auto& o : options) quoted.push_back(quote(o));
+  const std::string allowed = join(quoted, ", ");
+  auto s = opt_string(t, key, "a string, one of " + allowed);
+  if (!s) {
+    if (fallback) return *fallback;
+    t.rep().missing(t.path(key), "one of " + allowed);
+  }
+  for (const auto& o : options)
+    if (*s == o) return o;
+  t.rep().bad(t.path(key), *t.find(key), std::string("is not a known ") + what, allowed);
+}
+
+// [a, b]: an array of exactly two finite numbers.
+std::optional<std::array<double, 2>> opt_pair(const Table& t, std::string_view key,
+                                              const std::string& shape) {
+  const toml::node* n = t.find(key);
+  if (!n) return std::nullopt;
+  const auto* a = n->as_array();
+  if (!a) t.rep().wrong_type(t.path(key), *n, "an array " + shape);
+  if (a->size() != 2) t.rep().bad(t.path(key), *n, "has the wrong length", shape);
+  std::array<double, 2> out{};
+  for (std::size_t j = 0; j < 2; ++j) {
+    const std::string p = t.path(key) + "[" + std::to_string(j) + "]";
+    const auto x = as_number(*a->get(j));
+    if (!x) t.rep().wrong_type(p, *a->get(j), "a number; " + std::string(key) + " = " + shape);
+    if (!std::isfinite(*x)) t.rep().bad(p, *a->get(j), "is not a finite number", shape);
+    out[j] = *x;
+  }
+  return out;
+}
+
+// A sub-table (standard [a.b] or inline a = { ... }); nullptr when absent.
+const toml::table* sub_table(const Table& t, std::string_view key) {
+  const toml::node* n = t.find(key);
+  if (!n) return nullptr;
+  if (!n->is_table())
+    t.rep().wrong_type(t.path(key), *n, "a table ([" + t.path(key) + "] or { ... })");
+  return n->as_table();
+}
+
+// A non-empty array of tables ([[key]]).
+std::vector<const toml::table*> table_array(const Table& t, std::string_view key) {
+  const std::string p = t.path(key);
+  const std::string allowed = "an array of tables, one [[" + p + "]] section per entry";
+  const toml::node* n = t.find(key);
+  if (!n) t.rep().missing(p, "at least one [[" + p + "]] entry");
+  const auto* a = n->as_array();
+  if (!a) t.rep().wrong_type(p, *n, allowed);
+  if (a->empty()) t.rep().bad(p, *n, "has no entries", "at least one [[" + p + "]] entry");
+  std::vector<const toml::table*> out;
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    const auto* e = a->get(i)->as_table();
+    if (!e) t.rep().wrong_type(p + "[" + std::to_string(i) + "]", *a->get(i), allowed);
+    out.push_back(e);
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- sections
+
+void read_run(const Table& top, RunSpec& run) {
+  const toml::table* tt = sub_table(top, "run");
+  if (!tt) return;
+  const Table t(top.rep(), *tt, "run",
+                {"name", "end_time", "output_interval", "cfl", "progress_interval", "max_steps"});
+  if (auto name = opt_string(t, "name", "a non-empty string")) {
+    if (name->empty()) t.rep().out_of_range(t.path("name"), *t.find("name"), "a non-empty string");
+    run.name = *name;
+  }
+  run.end_time = number(t, "end_time", run.end_time, gt(0), "s");
+  run.output_interval = number(t, "output_interval", run.output_interval, ge(0), "s");
+  run.cfl = number(t, "cfl", run.cfl, gt_le(0, 1), "");
+  run.progress_interval = number(t, "progress_interval", run.progress_interval, gt(0), "s");
+  run.max_steps = static_cast<long>(integer(t, "max_steps", run.max_steps, 0, LONG_MAX));
+}
+
+void read_sph(const Table& top, SphSpec& sph) {
+  const toml::table* tt = sub_table(top, "sph");
+  if (!tt) top.rep().missing("sph.spacing", "spacing > 0 (m), the initial particle spacing, in [sph]");
+  const Table t(top.rep(), *tt, "sph",
+                {"spacing", "h_factor", "alpha", "beta", "artificial_stress", "artificial_stress_n",
+                 "regularise_every", "kernel_correction", "neighbour_skin", "axis_radius_factor"});
+  sph.spacing = required_number(t, "spacing", gt(0), "m");
+  sph.h_factor = number(t, "h_factor", sph.h_factor, ge_le(1.0, 2.5), "");
+  sph.alpha = number(t, "alpha", sph.alpha, ge(0), "");
+  sph.beta = number(t, "beta", sph.beta, ge(0), "");
+  sph.artificial_stress = number(t, "artificial_stress", sph.artificial_stress, ge_le(0, 1), "");
+  sph.artificial_stress_n = number(t, "artificial_stress_n", sph.artificial_stress_n, ge_le(1, 10), "");
+  sph.regularise_every =
+      static_cast<int>(integer(t, "regularise_every", sph.regularise_every, 0, INT_MAX));
+  sph.kernel_correction = boolean(t, "kernel_correction", sph.kernel_correction);
+  sph.neighbour_skin = number(t, "neighbour_skin", sph.neighbour_skin, ge_le(0, 1), "");
+  sph.axis_radius_factor = number(t, "axis_radius_factor", sph.axis_radius_factor, gt_le(0, 1), "");
+}
+
+MaterialSpec read_material(const Table& m, const std::vector<MaterialSpec>& earlier) {
+  MaterialSpec mat;
+  mat.name = required_string(m, "name", "a non-empty string, unique among the materials");
+  if (mat.name.empty())
+    m.rep().out_of_range(m.path("name"), *m.find("name"), "a non-empty string, unique among the materials");
+  for (std::size_t j = 0; j < earlier.size(); ++j)
+    if (earlier[j].name == mat.name)
+      m.rep().bad(m.path("name"), *m.find("name"), "is already used by materials[" + std::to_string(j) + "]",
+                  "a name unique among the materials");
+  mat.model = choice(m, "model", {"elastic", "mohr-coulomb", "tresca"}, "model", std::nullopt);
+  const bool tresca = mat.model == "tresca";
+
+  const auto density = opt_number(m, "density", gt(0), "kg/m3");
+  const auto unit_weight = opt_number(m, "unit_weight", gt(0), "N/m3");
+  const std::string one_of =
+      "exactly one of density (kg/m3 > 0) or unit_weight (N/m3 > 0, converted with g = 9.81)";
+  if (density && unit_weight)
+    m.rep().bad(m.path("unit_weight"), *m.find("unit_weight"),
+                "conflicts with " + m.path("density") + " = " + repr(*m.find("density")), one_of);
+  if (!density && !unit_weight) m.rep().missing(m.path("density"), one_of);
+  mat.density = density ? *density : *unit_weight / kUnitWeightGravity;
+
+  mat.shear_modulus = required_number(m, "G", gt(0), "Pa");
+  mat.poisson_ratio = required_number(m, "nu", ge_lt(0, 0.5), "");
+
+  if (tresca) {
+    if (const auto* c = m.find("c"))
+      m.rep().bad(m.path("c"), *c, "is not used by model \"tresca\"",
+                  "Su (undrained shear strength, Pa > 0) instead of c");
+    mat.cohesion = required_number(m, "Su", gt(0), "Pa");
+    for (const char* key : {"phi_deg", "psi_deg"}) {
+      const auto x = opt_number(m, key, ge_lt(0, 90), "deg");
+      if (x && *x != 0)
+        m.rep().out_of_range(m.path(key), *m.find(key),
+                             std::string(key) + " = 0 for model \"tresca\" (or leave it out)");
+    }
+    mat.phi_deg = 0;
+    mat.psi_deg = 0;
+  } else {
+    if (const auto* su = m.find("Su"))
+      m.rep().bad(m.path("Su"), *su, "is only used by model \"tresca\"",
+                  "c (cohesion, Pa >= 0) for model " + quote(mat.model));
+    mat.cohesion = number(m, "c", 0, ge(0), "Pa");
+    mat.phi_deg = number(m, "phi_deg", 0, ge_lt(0, 90), "deg");
+    mat.psi_deg = number(m, "psi_deg", 0, ge(0), "deg");
+    if (mat.psi_deg > mat.phi_deg)
+      m.rep().out_of_range(m.path("psi_deg"), *m.find("psi_deg"),
+                           "0 <= psi_deg <= phi_deg (= " + fmt_num(mat.phi_deg) + ") (deg)");
+  }
+  mat.tension_cutoff = number(m, "tension_cutoff", 0, ge(0), "Pa");
+  return mat;
+}
+
+BlockSpec read_block(const Table& b, const std::vector<MaterialSpec>& materials) {
+  BlockSpec blk;
+  std::vector<std::string> names;
+  for (const auto& m : materials) names.push_back(quote(m.name));
+  blk.material = required_string(b, "material", "the name of a material: " + join(names, ", "));
+  bool found = false;
+  for (const auto& m : materials) found = found || m.name == blk.material;
+  if (!found) b.rep().bad(b.path("material"), *b.find("material"), "is not a known material", join(names, ", "));
+
+  const std::string r_shape = "[r_min, r_max] with 0 <= r_min < r_max (m)";
+  const auto r = opt_pair(b, "r", r_shape);
+  if (!r) b.rep().missing(b.path("r"), r_shape);
+  if (!((*r)[0] >= 0 && (*r)[0] < (*r)[1])) b.rep().out_of_range(b.path("r"), *b.find("r"), r_shape);
+
+  const std::string z_shape = "[z_min, z_max] with z_min < z_max (m)";
+  const auto z = opt_pair(b, "z", z_shape);
+  if (!z) b.rep().missing(b.path("z"), z_shape);
+  if (!((*z)[0] < (*z)[1])) b.rep().out_of_range(b.path("z"), *b.find("z"), z_shape);
+
+  const auto v = opt_pair(b, "velocity", "[v_r, v_z] (m/s)");
+  blk.r_min = (*r)[0];
+  blk.r_max = (*r)[1];
+  blk.z_min = (*z)[0];
+  blk.z_max = (*z)[1];
+  if (v) {
+    blk.velocity_r = (*v)[0];
+    blk.velocity_z = (*v)[1];
+  }
+  return blk;
+}
+
+WallSpec read_wall(const Table& bnd, const char* key, const char* pos_key, const Range& pos_range) {
+  WallSpec w;
+  const toml::table* tt = sub_table(bnd, key);
+  if (!tt) return w;
+  const Table t(bnd.rep(), *tt, bnd.path(key), {"type", pos_key});
+  const std::string type = choice(t, "type", {"fixed", "roller", "none"}, "wall type", std::nullopt);
+  w.type = type == "fixed" ? WallType::Fixed : type == "roller" ? WallType::Roller : WallType::None;
+  if (w.type == WallType::None)
+    w.position = number(t, pos_key, 0, pos_range, "m");
+  else
+    if (!t.find(pos_key))
+      t.rep().missing(t.path(pos_key), pos_range.text(pos_key, "m") + ", the wall position, for type " + quote(type));
+    else
+      w.position = required_number(t, pos_key, pos_range, "m");
+  return w;
+}
+
+void read_boundaries(const Table& top, Config& cfg) {
+  const toml::table* tt = sub_table(top, "boundaries");
+  if (!tt) return;
+  const Table t(top.rep(), *tt, "boundaries", {"bottom", "top", "outer"});
+  cfg.bottom = read_wall(t, "bottom", "z", any());
+  cfg.top = read_wall(t, "top", "z", any());
+  cfg.outer = read_wall(t, "outer", "r", gt(0));
+  if (cfg.bottom.type != WallType::None && cfg.top.type != WallType::None &&
+      !(cfg.top.position > cfg.bottom.position))
+    t.rep().out_of_range("boundaries.top.z", *tt->get_as<toml::table>("top")->get("z"),
+                         "top.z > bottom.z (= " + fmt_num(cfg.bottom.position) + ") (m)");
+}
+
+Config build(const toml::table& root, const std::string& label) {
+  const Reporter rep(label);
+  Config cfg;
+  cfg.source_file = label;
+  const Table top(rep, root, "", {"run", "sph", "gravity", "damping", "materials", "blocks", "boundaries"});
+  cfg.gravity = number(top, "gravity", cfg.gravity, ge(0), "m/s2");
+  cfg.damping = number(top, "damping", cfg.damping, ge(0), "1/s");
+  read_run(top, cfg.run);
+  read_sph(top, cfg.sph);
+
+  const auto mats = table_array(top, "materials");
+  for (std::size_t i = 0; i < mats.size(); ++i) {
+    const Table m(rep, *mats[i], "materials[" + std::to_string(i) + "]",
+                  {"name", "model", "density", "unit_weight", "G", "nu", "c", "Su", "phi_deg",
+                   "psi_deg", "tension_cutoff"});
+    cfg.materials.push_back(read_material(m, cfg.materials));
+  }
+  const auto blocks = table_array(top, "blocks");
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    const Table b(rep, *blocks[i], "blocks[" + std::to_string(i) + "]", {"material", "r", "z", "velocity"});
+    cfg.blocks.push_back(read_block(b, cfg.materials));
+  }
+  read_boundaries(top, cfg);
+  return cfg;
+}
+
+// ---------------------------------------------------------------- writing
+
+const char* wall_name(WallType t) {
+  switch (t) {
+    case WallType::Fixed: return "fixed";
+    case WallType::Roller: return "roller";
+    default: return "none";
+  }
+}
+
+std::string wall_text(const WallSpec& w, const char* pos_key) {
+  std::string s = std::string("{ type = ") + quote(wall_name(w.type));
+  if (w.type != WallType::None || w.position != 0) s += std::string(", ") + pos_key + " = " + fmt_float(w.position);
+  return s + " }";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- public API
+
+Config parse_deck(const std::string& toml_text, const std::string& file_label) {
+  toml::table root;
+#if TOML_EXCEPTIONS
+  try {
+    root = toml::parse(toml_text, file_label);
+  } catch (const toml::parse_error& e) {
+    const auto& b = e.source().begin;
+    throw DeckError(file_label + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
+                    std::to_string(b.column) + ": " + std::string(e.description()));
+  }
+#else
+  toml::parse_result res = toml::parse(toml_text, file_label);
+  if (!res) {
+    const auto& b = res.error().source().begin;
+    throw DeckError(file_label + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
+                    std::to_string(b.column) + ": " + std::string(res.error().description()));
+  }
+  root = std::move(res).table();
+#endif
+  return build(root, file_label);
+}
+
+Config load_deck(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw DeckError(path + ": the deck file does not exist");
+  if (fs::is_directory(path, ec)) throw DeckError(path + ": is a directory, not a deck file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DeckError(path + ": cannot open the deck file (" + std::strerror(errno) + ")");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw DeckError(path + ": cannot read the deck file");
+  return parse_deck(text.str(), path);
+}
+
+std::string to_toml(const Config& c) {
+  std::ostringstream o;
+  o << "# Tamp input deck";
+  if (!c.source_file.empty()) o << " (effective values of " << quote(c.source_file) << ")";
+  o << "\n# SI units; gravity acts in -z; r >= 0 is the radial coordinate.\n\n";
+  o << "gravity = " << fmt_float(c.gravity) << "  # m/s2\n";
+  o << "damping = " << fmt_float(c.damping) << "  # 1/s\n\n";
+
+  o << "[run]\n";
+  o << "name = " << quote(c.run.name) << "\n";
+  o << "end_time = " << fmt_float(c.run.end_time) << "  # s\n";
+  o << "output_interval = " << fmt_float(c.run.output_interval) << "  # s, 0 = final state only\n";
+  o << "cfl = " << fmt_float(c.run.cfl) << "\n";
+  o << "progress_interval = " << fmt_float(c.run.progress_interval) << "  # s of wall time\n";
+  o << "max_steps = " << c.run.max_steps << "  # 0 = unlimited\n\n";
+
+  o << "[sph]\n";
+  o << "spacing = " << fmt_float(c.sph.spacing) << "  # m\n";
+  o << "h_factor = " << fmt_float(c.sph.h_factor) << "\n";
+  o << "alpha = " << fmt_float(c.sph.alpha) << "\n";
+  o << "beta = " << fmt_float(c.sph.beta) << "\n";
+  o << "artificial_stress = " << fmt_float(c.sph.artificial_stress) << "\n";
+  o << "artificial_stress_n = " << fmt_float(c.sph.artificial_stress_n) << "\n";
+  o << "regularise_every = " << c.sph.regularise_every << "\n";
+  o << "kernel_correction = " << (c.sph.kernel_correction ? "true" : "false") << "\n";
+  o << "neighbour_skin = " << fmt_float(c.sph.neighbour_skin) << "\n";
+  o << "axis_radius_factor = " << fmt_float(c.sph.axis_radius_factor) << "\n\n";
+
+  o << "[boundaries]\n";
+  o << "bottom = " << wall_text(c.bottom, "z") << "\n";
+  o << "top = " << wall_text(c.top, "z") << "\n";
+  o << "outer = " << wall_text(c.outer, "r") << "\n";
+
+  for (const auto& m : c.materials) {
+    o << "\n[[materials]]\n";
+    o << "name = " << quote(m.name) << "\n";
+    o << "model = " << quote(m.model) << "\n";
+    o << "density = " << fmt_float(m.density) << "  # kg/m3\n";
+    o << "G = " << fmt_float(m.shear_modulus) << "  # Pa\n";
+    o << "nu = " << fmt_float(m.poisson_ratio) << "\n";
+    if (m.model == "tresca") {
+      o << "Su = " << fmt_float(m.cohesion) << "  # Pa\n";
+    } else {
+      o << "c = " << fmt_float(m.cohesion) << "  # Pa\n";
+      o << "phi_deg = " << fmt_float(m.phi_deg) << "\n";
+      o << "psi_deg = " << fmt_float(m.psi_deg) << "\n";
+    }
+    o << "tension_cutoff = " << fmt_float(m.tension_cutoff) << "  # Pa\n";
+  }
+  for (const auto& b : c.blocks) {
+    o << "\n[[blocks]]\n";
+    o << "material = " << quote(b.material) << "\n";
+    o << "r = [" << fmt_float(b.r_min) << ", " << fmt_float(b.r_max) << "]  # m\n";
+    o << "z = [" << fmt_float(b.z_min) << ", " << fmt_float(b.z_max) << "]  # m\n";
+    o << "velocity = [" << fmt_float(b.velocity_r) << ", " << fmt_float(b.velocity_z) << "]  # m/s\n";
+  }
+  return o.str();
+}
+
+}  // namespace tamp

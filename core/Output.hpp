@@ -1,0 +1,72 @@
+// Results output: particle snapshots as HDF5, an XDMF index that ParaView opens as a time
+// series, and CSV tables. All of it runs on the host; callers copy device data first.
+//
+// Snapshot layout (one file per output time):
+//   /particles                 group, attributes step (int64), time (float64, s)
+//   /particles/<field>         1-D datasets of length n, each with a string attribute "units":
+//                              r, z, v_r, v_z, density, s_rr, s_zz, s_tt, s_rz, plastic_strain,
+//                              internal_energy, mass (float64), material (int32)
+//   /particles/coordinates     n x 3 float64 (r, z, 0), the XDMF geometry
+//
+// Errors (file cannot be created/opened, dataset missing, inconsistent sizes) throw
+// std::runtime_error naming the file (std::invalid_argument for bad arguments).
+#pragma once
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace tamp {
+
+struct ParticleSnapshot {             // host copies of the fields of the real particles
+  long step = 0;
+  double time = 0;                    // s
+  std::vector<double> r, z;           // m
+  std::vector<double> v_r, v_z;       // m/s
+  std::vector<double> density;        // kg/m3
+  std::vector<double> s_rr, s_zz, s_tt, s_rz;  // Pa, tension positive
+  std::vector<double> plastic_strain; // accumulated equivalent plastic strain, -
+  std::vector<double> internal_energy;// specific, J/kg
+  std::vector<double> mass;           // kg
+  std::vector<int> material;          // index into Config::materials
+
+  std::size_t size() const { return r.size(); }
+  void resize(std::size_t n);         // every field to n entries
+};
+
+// Writes `s` to `path` (created or replaced; written to "<path>.tmp" and renamed, so a
+// reader never sees a half-written file). Every field must have s.size() entries.
+void write_snapshot_h5(const std::string& path, const ParticleSnapshot& s);
+
+// Reads a file written by write_snapshot_h5 (for tests and restarts).
+ParticleSnapshot read_snapshot_h5(const std::string& path);
+
+// An XDMF file listing snapshots as a temporal collection of Polyvertex grids, with one
+// scalar Attribute per field. write() rewrites the whole file (atomically), so calling it
+// after every add() keeps a valid index while a run is in progress.
+class XdmfSeries {
+ public:
+  explicit XdmfSeries(std::string xdmf_path);
+  // `h5_file_relative`: the snapshot file relative to the folder of the XDMF file (an
+  // absolute path is made relative). Adding a file name already listed replaces that entry.
+  void add(const std::string& h5_file_relative, const ParticleSnapshot& s);
+  void write() const;
+  std::size_t size() const { return entries_.size(); }
+  const std::string& path() const { return xdmf_path_; }
+
+ private:
+  struct Entry {
+    std::string file;
+    long step;
+    double time;
+    std::size_t n;
+  };
+  std::string xdmf_path_;
+  std::vector<Entry> entries_;
+};
+
+// Comma-separated table; doubles written with round-trip precision (shortest exact form).
+// `header` may be empty (no header line); otherwise every row must have header.size() values.
+void write_csv(const std::string& path, const std::vector<std::string>& header,
+               const std::vector<std::vector<double>>& rows);
+
+}  // namespace tamp

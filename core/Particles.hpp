@@ -1,0 +1,61 @@
+// Particle storage: structure-of-arrays Kokkos views (Cabana-style), in the default
+// memory space. Real particles occupy [0, n_real); mirror (ghost) particles that stand in
+// for the axis and rigid walls occupy [n_real, n_total). Capacity grows on the host,
+// never inside a kernel.
+#pragma once
+#include <string>
+#include "core/Types.hpp"
+
+namespace tamp {
+
+enum ParticleFlag : int {
+  FLAG_NONE = 0,
+  FLAG_DRIVEN = 1,  // velocity prescribed (v_prescribed), not integrated from forces
+};
+
+struct Particles {
+  int n_real = 0;
+  int n_total = 0;
+  int capacity = 0;
+
+  ViewN<double, 2> x;             // position (r, z), m
+  ViewN<double, 2> v;             // velocity (v_r, v_z), m/s
+  ViewN<double, 2> a;             // acceleration, m/s2
+  ViewN<double, 2> a_ext;         // external acceleration (surface tractions), m/s2
+  ViewN<double, 2> v_prescribed;  // velocity of FLAG_DRIVEN particles, m/s
+  ViewN<double, 2> x_ref;         // position at the last neighbour-list build
+  View1<double> mass;             // ring mass (the whole ring of revolution), kg
+  View1<double> planar_mass;      // mass / (2 pi r): mass per radian of revolution / r, kg/m
+  View1<double> rho;              // density, kg/m3
+  ViewN<double, 4> sigma;         // Cauchy stress rr, zz, tt, rz (tension positive), Pa
+  ViewN<double, 4> sigma_tmp;     // scratch for stress regularisation
+  ViewN<double, 3> art_stress;    // Gray-Monaghan-Swift R (rr, zz, rz), (Pa) / (kg/m3)^2
+  View1<double> plastic_strain;   // accumulated equivalent plastic shear strain, -
+  View1<double> internal_energy;  // specific internal energy (strain + dissipated), J/kg
+  View1<double> du_visc;          // rate of viscous heating, W/kg
+  View1<int> material;            // index into the material table
+  View1<int> flags;               // ParticleFlag bits
+  View1<int> ghost_source;        // ghosts: the particle this one mirrors
+
+  void reserve(int new_capacity);  // grows every view, keeping contents
+};
+
+inline void Particles::reserve(int new_capacity) {
+  if (new_capacity <= capacity) return;
+  auto grow = [&](auto& view, const char* label) {
+    if (view.extent(0) == 0 && view.data() == nullptr)
+      view = std::decay_t<decltype(view)>(std::string(label), static_cast<size_t>(new_capacity));
+    else
+      Kokkos::resize(view, new_capacity);
+  };
+  grow(x, "x"); grow(v, "v"); grow(a, "a"); grow(a_ext, "a_ext");
+  grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref");
+  grow(mass, "mass"); grow(planar_mass, "planar_mass"); grow(rho, "rho");
+  grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
+  grow(plastic_strain, "plastic_strain"); grow(internal_energy, "internal_energy");
+  grow(du_visc, "du_visc"); grow(material, "material"); grow(flags, "flags");
+  grow(ghost_source, "ghost_source");
+  capacity = new_capacity;
+}
+
+}  // namespace tamp

@@ -1,0 +1,285 @@
+#include "drivers/Simulation.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace tamp {
+
+MaterialParams make_material(const MaterialSpec& s) {
+  MaterialParams m;
+  m.model = (s.model == "elastic") ? MODEL_ELASTIC : MODEL_MOHR_COULOMB;
+  m.density = s.density;
+  m.shear_modulus = s.shear_modulus;
+  m.bulk_modulus = bulk_from_shear(s.shear_modulus, s.poisson_ratio);
+  m.cohesion = s.cohesion;
+  m.phi = s.phi_deg * pi / 180.0;
+  m.psi = s.psi_deg * pi / 180.0;
+  m.tension_cutoff = s.tension_cutoff;
+  return m;
+}
+
+Simulation::Simulation(const Config& config) : config_(config) {
+  const double dp = config_.sph.spacing;
+  sph_.h = config_.sph.h_factor * dp;
+  sph_.alpha = config_.sph.alpha;
+  sph_.beta = config_.sph.beta;
+  sph_.art_eps = config_.sph.artificial_stress;
+  sph_.art_n = config_.sph.artificial_stress_n;
+  sph_.inv_w_dp = 1.0 / Wendland2D(sph_.h).value(dp);
+  sph_.r_min = config_.sph.axis_radius_factor * sph_.h;
+  sph_.gravity = config_.gravity;
+  sph_.damping = config_.damping;
+  sph_.kernel_correction = config_.sph.kernel_correction ? 1 : 0;
+  skin_ = config_.sph.neighbour_skin * sph_.h;
+
+  // Mirror planes: the axis first, then the walls the deck asks for.
+  MirrorPlanes& planes = ghosts_.planes;
+  planes.plane[planes.count++] = MirrorPlane{0, 0.0, +1, 0};
+  auto add_wall = [&](const WallSpec& w, int axis, int side) {
+    if (w.type == WallType::None) return;
+    planes.plane[planes.count++] = MirrorPlane{axis, w.position, side, w.type == WallType::Fixed ? 1 : 0};
+  };
+  add_wall(config_.bottom, 1, +1);
+  add_wall(config_.top, 1, -1);
+  add_wall(config_.outer, 0, -1);
+
+  build_materials();
+  build_particles();
+  refresh_neighbours(true);
+  compute_acceleration();
+}
+
+void Simulation::build_materials() {
+  materials_host_.clear();
+  for (const auto& s : config_.materials) materials_host_.push_back(make_material(s));
+  materials_ = Kokkos::View<MaterialParams*, MemSpace>("tamp::materials", materials_host_.size());
+  auto h = Kokkos::create_mirror_view(materials_);
+  for (size_t k = 0; k < materials_host_.size(); ++k) h(k) = materials_host_[k];
+  Kokkos::deep_copy(materials_, h);
+}
+
+// Particles on a regular grid of spacing dp in each block (centres at half spacings), ring
+// mass m = rho0 * 2 pi r * dp^2. One kernel launch per block.
+void Simulation::build_particles() {
+  const double dp = config_.sph.spacing;
+  struct Grid { int nr, nz, first, mat; BlockSpec b; };
+  std::vector<Grid> grids;
+  int total = 0;
+  for (const auto& b : config_.blocks) {
+    int mat = -1;
+    for (size_t k = 0; k < config_.materials.size(); ++k)
+      if (config_.materials[k].name == b.material) mat = static_cast<int>(k);
+    if (mat < 0) throw std::invalid_argument("block refers to unknown material '" + b.material + "'");
+    const int nr = static_cast<int>(std::lround((b.r_max - b.r_min) / dp));
+    const int nz = static_cast<int>(std::lround((b.z_max - b.z_min) / dp));
+    if (nr < 1 || nz < 1) throw std::invalid_argument("block smaller than one particle spacing");
+    grids.push_back({nr, nz, total, mat, b});
+    total += nr * nz;
+  }
+  Particles& P = particles_;
+  P.reserve(total + total / 2 + 64);
+  P.n_real = total;
+  P.n_total = total;
+  Kokkos::deep_copy(P.a, 0.0);
+  Kokkos::deep_copy(P.a_ext, 0.0);
+  Kokkos::deep_copy(P.sigma, 0.0);
+  Kokkos::deep_copy(P.art_stress, 0.0);
+  Kokkos::deep_copy(P.plastic_strain, 0.0);
+  Kokkos::deep_copy(P.internal_energy, 0.0);
+  Kokkos::deep_copy(P.du_visc, 0.0);
+  Kokkos::deep_copy(P.flags, 0);
+  Kokkos::deep_copy(P.v_prescribed, 0.0);
+  const double r_floor = 1e-3 * dp;
+  for (const Grid& g : grids) {
+    auto x = P.x; auto v = P.v; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
+    auto matv = P.material;
+    const double rho0 = materials_host_[g.mat].density;
+    const Grid gg = g;
+    Kokkos::parallel_for(
+        "tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, g.nr * g.nz), KOKKOS_LAMBDA(int k) {
+          const int i = g.first + k;
+          const int ir = k % gg.nr, iz = k / gg.nr;
+          const double r = gg.b.r_min + (ir + 0.5) * dp;
+          const double z = gg.b.z_min + (iz + 0.5) * dp;
+          x(i, 0) = r;
+          x(i, 1) = z;
+          v(i, 0) = gg.b.velocity_r;
+          v(i, 1) = gg.b.velocity_z;
+          rho(i) = rho0;
+          mass(i) = rho0 * 2.0 * pi * r * dp * dp;
+          mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
+          matv(i) = gg.mat;
+        });
+  }
+  Kokkos::fence();
+}
+
+void Simulation::refresh_neighbours(bool force) {
+  Particles& P = particles_;
+  const double cutoff = 2.0 * sph_.h + skin_;
+  bool rebuild = force;
+  if (!rebuild) {
+    auto x = P.x; auto xr = P.x_ref;
+    double dmax = 0;
+    Kokkos::parallel_reduce(
+        "tamp::max_displacement", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+        KOKKOS_LAMBDA(int i, double& m) {
+          const double dr = x(i, 0) - xr(i, 0), dz = x(i, 1) - xr(i, 1);
+          m = math::max(m, dr * dr + dz * dz);
+        },
+        Kokkos::Max<double>(dmax));
+    rebuild = std::sqrt(dmax) > 0.5 * skin_;
+  }
+  if (rebuild) {
+    ghosts_.generate(P, cutoff, config_.gravity);
+    neighbours_.build(P.x, P.n_total, P.n_real, cutoff);
+    Kokkos::deep_copy(Kokkos::subview(P.x_ref, std::make_pair(0, P.n_real), Kokkos::ALL),
+                      Kokkos::subview(P.x, std::make_pair(0, P.n_real), Kokkos::ALL));
+    ++list_builds_;
+  } else {
+    ghosts_.sync_kinematics(P);
+  }
+}
+
+void Simulation::compute_acceleration() {
+  Particles& P = particles_;
+  Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.art_stress,
+                 P.material, neighbours_.offsets, neighbours_.neighbours, materials_, sph_};
+  Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
+}
+
+double Simulation::stable_dt() const {
+  const Particles& P = particles_;
+  double dt = 1e30;
+  StableStep s{P.v, P.a, P.rho, P.material, materials_, sph_.h};
+  Kokkos::parallel_reduce("tamp::stable_dt", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), s,
+                          Kokkos::Min<double>(dt));
+  return config_.run.cfl * dt;
+}
+
+void Simulation::step(double dt_override) {
+  Particles& P = particles_;
+  const double dt = dt_override > 0 ? dt_override : stable_dt();
+  const double dt_floor = 1e-6 * config_.run.cfl * sph_.h / 1e4;  // far below any soil's step
+  if (!(dt > dt_floor) || !std::isfinite(dt)) {
+    std::ostringstream msg;
+    msg << "time step collapsed to " << dt << " s at t = " << time_ << " s, step " << steps_
+        << " (a NaN or an exploding velocity in the particles)";
+    throw RunFailure(msg.str());
+  }
+  dt_ = dt;
+  using policy = Kokkos::RangePolicy<ExecSpace>;
+  const policy reals(0, P.n_real);
+
+  Kick kick{P.v, P.a, P.v_prescribed, P.internal_energy, P.du_visc, P.flags, 0.5 * dt};
+  Kokkos::parallel_for("tamp::kick", reals, kick);
+
+  MirrorPlanes walls;  // the axis and the walls: reflect particles that cross them
+  walls = ghosts_.planes;
+  Drift drift{P.x, P.v, P.mass, P.planar_mass, walls, dt, 1e-3 * config_.sph.spacing};
+  Kokkos::parallel_for("tamp::drift", reals, drift);
+
+  refresh_neighbours(false);
+
+  StrainRateAndStress rates{P.x, P.v, P.mass, P.rho, P.plastic_strain, P.internal_energy,
+                            P.sigma, P.art_stress, P.material, neighbours_.offsets,
+                            neighbours_.neighbours, materials_, sph_, dt};
+  Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);
+  ghosts_.sync_stress(P, config_.gravity);
+
+  const int every = config_.sph.regularise_every;
+  if (every > 0 && (steps_ + 1) % every == 0) {
+    StressRegularisation reg{P.x, P.planar_mass, P.rho, P.sigma, P.sigma_tmp,
+                             neighbours_.offsets, neighbours_.neighbours, sph_.h};
+    Kokkos::parallel_for("tamp::sph::regularise", reals, reg);
+    auto s = P.sigma; auto t = P.sigma_tmp;
+    Kokkos::parallel_for("tamp::sph::regularise_copy", reals, KOKKOS_LAMBDA(int i) {
+      for (int c = 0; c < 4; ++c) s(i, c) = t(i, c);
+    });
+    ghosts_.sync_stress(P, config_.gravity);
+  }
+
+  compute_acceleration();
+  Kokkos::parallel_for("tamp::kick", reals, kick);
+  time_ += dt;
+  ++steps_;
+}
+
+void Simulation::advance_to(double end_time, const std::function<bool()>& on_step) {
+  const long max_steps = config_.run.max_steps;
+  while (time_ < end_time * (1.0 - 1e-12)) {
+    if (max_steps > 0 && steps_ >= max_steps) break;
+    const double dt = std::min(stable_dt(), end_time - time_);
+    step(dt > 0 ? dt : 0.0);
+    if (on_step && !on_step()) break;
+  }
+  Kokkos::fence();
+}
+
+Energies Simulation::energies() const { return energy_sums(particles_, config_.gravity); }
+
+void Simulation::prescribe_velocity(const Box& box, double v_r, double v_z) {
+  Particles& P = particles_;
+  auto x = P.x; auto flags = P.flags; auto vp = P.v_prescribed; auto v = P.v;
+  Kokkos::parallel_for("tamp::prescribe_velocity", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       KOKKOS_LAMBDA(int i) {
+                         const double r = x(i, 0), z = x(i, 1);
+                         if (r >= box.r_min && r < box.r_max && z >= box.z_min && z < box.z_max) {
+                           flags(i) |= FLAG_DRIVEN;
+                           vp(i, 0) = v_r; vp(i, 1) = v_z;
+                           v(i, 0) = v_r; v(i, 1) = v_z;
+                         }
+                       });
+}
+
+void Simulation::apply_surface_traction(const Box& box, double t_r, double t_z, double layer,
+                                        double face_r) {
+  Particles& P = particles_;
+  auto x = P.x; auto a_ext = P.a_ext; auto rho = P.rho;
+  Kokkos::parallel_for("tamp::surface_traction", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       KOKKOS_LAMBDA(int i) {
+                         const double r = x(i, 0), z = x(i, 1);
+                         if (r >= box.r_min && r < box.r_max && z >= box.z_min && z < box.z_max) {
+                           // force on the ring / ring mass; ring mass = rho 2 pi r layer dz
+                           const double ratio = face_r > 0 ? face_r / r : 1.0;
+                           a_ext(i, 0) += t_r * ratio / (rho(i) * layer);
+                           a_ext(i, 1) += t_z * ratio / (rho(i) * layer);
+                         }
+                       });
+}
+
+ParticleSnapshot Simulation::snapshot() const {
+  const Particles& P = particles_;
+  const int n = P.n_real;
+  auto hx = Kokkos::create_mirror_view_and_copy(HostSpace(), P.x);
+  auto hv = Kokkos::create_mirror_view_and_copy(HostSpace(), P.v);
+  auto hs = Kokkos::create_mirror_view_and_copy(HostSpace(), P.sigma);
+  auto hrho = Kokkos::create_mirror_view_and_copy(HostSpace(), P.rho);
+  auto hep = Kokkos::create_mirror_view_and_copy(HostSpace(), P.plastic_strain);
+  auto hu = Kokkos::create_mirror_view_and_copy(HostSpace(), P.internal_energy);
+  auto hm = Kokkos::create_mirror_view_and_copy(HostSpace(), P.mass);
+  auto hmat = Kokkos::create_mirror_view_and_copy(HostSpace(), P.material);
+  ParticleSnapshot s;
+  s.step = steps_;
+  s.time = time_;
+  auto take = [n](auto&& f, auto& out) {
+    out.resize(n);
+    for (int i = 0; i < n; ++i) out[i] = f(i);
+  };
+  take([&](int i) { return hx(i, 0); }, s.r);
+  take([&](int i) { return hx(i, 1); }, s.z);
+  take([&](int i) { return hv(i, 0); }, s.v_r);
+  take([&](int i) { return hv(i, 1); }, s.v_z);
+  take([&](int i) { return hrho(i); }, s.density);
+  take([&](int i) { return hs(i, 0); }, s.s_rr);
+  take([&](int i) { return hs(i, 1); }, s.s_zz);
+  take([&](int i) { return hs(i, 2); }, s.s_tt);
+  take([&](int i) { return hs(i, 3); }, s.s_rz);
+  take([&](int i) { return hep(i); }, s.plastic_strain);
+  take([&](int i) { return hu(i); }, s.internal_energy);
+  take([&](int i) { return hm(i); }, s.mass);
+  take([&](int i) { return hmat(i); }, s.material);
+  return s;
+}
+
+}  // namespace tamp

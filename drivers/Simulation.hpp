@@ -1,0 +1,83 @@
+// The host driver of one SPH model: builds particles from a Config, then steps it in
+// time. It only sequences kernels (kernels/) and holds state; physics lives in kernels
+// and models.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+#include "core/Config.hpp"
+#include "core/Material.hpp"
+#include "core/Output.hpp"
+#include "core/Particles.hpp"
+#include "kernels/Integrate.hpp"
+#include "kernels/Mirror.hpp"
+#include "kernels/NeighbourList.hpp"
+#include "kernels/SphSolid.hpp"
+
+namespace tamp {
+
+struct Box {
+  double r_min, r_max, z_min, z_max;  // m; a particle is inside when r_min <= r < r_max ...
+};
+
+// Thrown when the run cannot go on (NaN, collapsing time step): the message says what and where.
+struct RunFailure : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class Simulation {
+ public:
+  explicit Simulation(const Config& config);
+
+  // One leapfrog step with the stable time step (or `dt_override` if > 0).
+  void step(double dt_override = 0.0);
+  // Steps until time >= end_time (or max_steps); `on_step` runs after every step and may
+  // return false to stop early.
+  void advance_to(double end_time, const std::function<bool()>& on_step = {});
+
+  double time() const { return time_; }
+  long steps() const { return steps_; }
+  double last_dt() const { return dt_; }
+  double stable_dt() const;
+  double smoothing_length() const { return sph_.h; }
+  double spacing() const { return config_.sph.spacing; }
+  int particle_count() const { return particles_.n_real; }
+  int ghost_count() const { return ghosts_.ghost_count(); }
+  long neighbour_list_builds() const { return list_builds_; }
+  double mean_neighbours() const { return double(neighbours_.pair_count()) / particles_.n_real; }
+  const Config& config() const { return config_; }
+  Particles& particles() { return particles_; }
+  const std::vector<MaterialParams>& materials() const { return materials_host_; }
+
+  Energies energies() const;
+  ParticleSnapshot snapshot() const;
+
+  // Particles inside `box` take the velocity (v_r, v_z) from now on (m/s).
+  void prescribe_velocity(const Box& box, double v_r, double v_z);
+  // A surface traction (t_r, t_z) in Pa on the particles in `box`, which form a boundary
+  // layer of thickness `layer` (m). `face_r` > 0: the loaded face is the cylinder r =
+  // face_r (the force on the ring is t * 2 pi face_r * dz); otherwise a face z = const.
+  void apply_surface_traction(const Box& box, double t_r, double t_z, double layer, double face_r = -1.0);
+
+ private:
+  void build_materials();
+  void build_particles();
+  void refresh_neighbours(bool force);
+  void compute_acceleration();
+
+  Config config_;
+  SphParams sph_;
+  std::vector<MaterialParams> materials_host_;
+  Kokkos::View<MaterialParams*, MemSpace> materials_;
+  Particles particles_;
+  MirrorGhosts ghosts_;
+  NeighbourList neighbours_;
+  double skin_ = 0;
+  double time_ = 0, dt_ = 0;
+  long steps_ = 0, list_builds_ = 0;
+};
+
+// Material parameters for the kernels from a deck's material entry.
+MaterialParams make_material(const MaterialSpec& spec);
+
+}  // namespace tamp

@@ -1,0 +1,183 @@
+// The `tamp` command line.
+//   tamp run DECK --out DIR [--force]   run a deck, results in DIR
+//   tamp check DECK                     validate a deck and print what it would run
+//   tamp --version
+// Exit codes: 0 ok, 2 bad input, 1 run failure (or interrupted).
+#include <CLI/CLI.hpp>
+#include <Kokkos_Core.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "core/Deck.hpp"
+#include "core/Log.hpp"
+#include "core/Output.hpp"
+#include "drivers/Simulation.hpp"
+
+namespace fs = std::filesystem;
+using namespace tamp;
+
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+void on_sigint(int) { g_interrupted = true; }
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
+  os << "deck:        " << (cfg.source_file.empty() ? "(in code)" : cfg.source_file) << "\n"
+     << "run:         " << cfg.run.name << ", end time " << cfg.run.end_time << " s"
+     << (cfg.run.max_steps > 0 ? ", at most " + std::to_string(cfg.run.max_steps) + " steps" : "") << "\n"
+     << "particles:   " << sim.particle_count() << " (+" << sim.ghost_count()
+     << " mirror), spacing " << cfg.sph.spacing << " m, h " << sim.smoothing_length() << " m\n"
+     << "materials:\n";
+  for (size_t k = 0; k < cfg.materials.size(); ++k) {
+    const auto& m = cfg.materials[k];
+    const auto& p = sim.materials()[k];
+    os << "  " << m.name << ": " << m.model << ", rho " << m.density << " kg/m3, G " << m.shear_modulus
+       << " Pa, nu " << m.poisson_ratio;
+    if (m.model != "elastic") os << ", c " << m.cohesion << " Pa, phi " << m.phi_deg << " deg";
+    os << ", c_p " << fmt("%.1f", p.wave_speed()) << " m/s\n";
+  }
+  const double dt = sim.stable_dt();
+  os << "time step:   " << fmt("%.3g", dt) << " s (CFL " << cfg.run.cfl << "), about "
+     << static_cast<long>(cfg.run.end_time / dt) << " steps\n"
+     << "gravity:     " << cfg.gravity << " m/s2, damping " << cfg.damping << " 1/s\n"
+     << "stages:      one (" << cfg.run.end_time << " s of dynamics)\n";
+}
+
+int cmd_check(const std::string& deck) {
+  Config cfg = load_deck(deck);
+  Simulation sim(cfg);
+  print_plan(cfg, sim, std::cout);
+  std::cout << "deck is valid\n";
+  return 0;
+}
+
+int cmd_run(const std::string& deck, const std::string& out, bool force) {
+  Config cfg = load_deck(deck);  // validated before any work
+  if (fs::exists(out)) {
+    if (!force) {
+      log::error("result folder '" + out + "' exists; pass --force to overwrite it");
+      return 2;
+    }
+    fs::remove_all(out);
+  }
+  fs::create_directories(out);
+  { std::ofstream(out + "/deck.toml") << to_toml(cfg); }
+
+  Simulation sim(cfg);
+  print_plan(cfg, sim, std::cerr);
+  XdmfSeries series(out + "/particles.xdmf");
+  int n_snap = 0;
+  auto write_snapshot = [&]() {
+    char name[64];
+    std::snprintf(name, sizeof name, "snapshot_%05d.h5", n_snap++);
+    ParticleSnapshot s = sim.snapshot();
+    write_snapshot_h5(out + "/" + name, s);
+    series.add(name, s);
+    series.write();
+  };
+  std::vector<std::vector<double>> energy_rows;
+  auto record_energy = [&]() {
+    Energies e = sim.energies();
+    energy_rows.push_back({sim.time(), e.kinetic, e.internal, e.potential, e.total()});
+  };
+  write_snapshot();
+  record_energy();
+
+  std::signal(SIGINT, on_sigint);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last_progress = t0;
+  double next_output = cfg.run.output_interval > 0 ? cfg.run.output_interval : 1e300;
+  const long energy_every = 50;
+  std::string failure;
+  try {
+    sim.advance_to(cfg.run.end_time, [&]() {
+      if (sim.steps() % energy_every == 0) record_energy();
+      if (sim.time() >= next_output) {
+        write_snapshot();
+        next_output += cfg.run.output_interval;
+      }
+      const auto now = std::chrono::steady_clock::now();
+      const double since = std::chrono::duration<double>(now - last_progress).count();
+      if (since >= cfg.run.progress_interval) {
+        const double wall = std::chrono::duration<double>(now - t0).count();
+        const double rate = sim.steps() / wall;
+        const double left = (cfg.run.end_time - sim.time()) / sim.last_dt() / rate;
+        std::fprintf(stderr, "[tamp] stage dynamics | t = %.5f s of %.5f | step %ld | %.0f steps/s | %.0f s left\n",
+                     sim.time(), cfg.run.end_time, sim.steps(), rate, left);
+        last_progress = now;
+      }
+      return !g_interrupted.load();
+    });
+  } catch (const RunFailure& e) {
+    failure = e.what();
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  record_energy();
+  write_csv(out + "/energy.csv", {"time_s", "kinetic_J", "internal_J", "potential_J", "total_J"}, energy_rows);
+  if (!failure.empty()) {
+    log::error("run failed: " + failure + "; last good snapshot in " + out);
+    return 1;
+  }
+  write_snapshot();
+  std::ostringstream done;
+  done << "finished: " << sim.steps() << " steps, t = " << sim.time() << " s, wall " << fmt("%.2f", wall)
+       << " s, " << fmt("%.3g", sim.particle_count() * double(sim.steps()) / wall) << " particle-steps/s";
+  log::info(done.str());
+  if (g_interrupted) {
+    log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; state written to " + out);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Tamp: particle simulation of dynamic replacement (axisymmetric SPH for soils)"};
+  app.set_version_flag("--version", std::string("tamp ") + TAMP_VERSION);
+  app.require_subcommand(1);
+  std::string deck, out;
+  bool force = false;
+  auto* run = app.add_subcommand("run", "Run an input deck and write the results to a folder");
+  run->add_option("deck", deck, "Input deck (TOML), e.g. examples/geostatic-clay.toml")->required();
+  run->add_option("--out", out, "Result folder (must not exist unless --force)")->required();
+  run->add_flag("--force", force, "Overwrite an existing result folder");
+  auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
+  check->add_option("deck", deck, "Input deck (TOML)")->required();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;
+  }
+
+  Kokkos::initialize(argc, argv);
+  int rc = 0;
+  try {
+    if (*run) rc = cmd_run(deck, out, force);
+    if (*check) rc = cmd_check(deck);
+  } catch (const DeckError& e) {
+    log::error(e.what());
+    rc = 2;
+  } catch (const std::invalid_argument& e) {
+    log::error(std::string("bad input: ") + e.what());
+    rc = 2;
+  } catch (const std::exception& e) {
+    log::error(e.what());
+    rc = 1;
+  }
+  Kokkos::finalize();
+  return rc;
+}

@@ -1,0 +1,96 @@
+// Leapfrog (kick-drift-kick, velocity Verlet) time integration of the real particles,
+// the CFL time step, and energy sums. All parallel over particles.
+#pragma once
+#include "core/Material.hpp"
+#include "core/Particles.hpp"
+#include "kernels/Mirror.hpp"
+
+namespace tamp {
+
+// v += dt_half * a (driven particles take their prescribed velocity);
+// the viscous heating rate is integrated with the same half step.
+struct Kick {
+  ViewN<double, 2> v, a, v_prescribed;
+  View1<double> internal_energy, du_visc;
+  View1<int> flags;
+  double dt_half;
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    if (flags(i) & FLAG_DRIVEN) {
+      v(i, 0) = v_prescribed(i, 0);
+      v(i, 1) = v_prescribed(i, 1);
+    } else {
+      v(i, 0) += dt_half * a(i, 0);
+      v(i, 1) += dt_half * a(i, 1);
+    }
+    internal_energy(i) += dt_half * du_visc(i);
+  }
+};
+
+// x += dt v; a particle that crosses the axis or a wall is reflected back (its normal
+// velocity flips); the planar mass m / (2 pi r) follows the new radius.
+struct Drift {
+  ViewN<double, 2> x, v;
+  View1<double> mass, planar_mass;
+  MirrorPlanes walls;
+  double dt;
+  double r_floor;  // smallest radius used for the planar mass, m
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    x(i, 0) += dt * v(i, 0);
+    x(i, 1) += dt * v(i, 1);
+    for (int k = 0; k < walls.count; ++k) {
+      const MirrorPlane& pl = walls.plane[k];
+      const double d = (x(i, pl.axis) - pl.position) * pl.side;
+      if (d < 0) {
+        x(i, pl.axis) = 2.0 * pl.position - x(i, pl.axis);
+        v(i, pl.axis) = -v(i, pl.axis);
+      }
+    }
+    planar_mass(i) = mass(i) / (2.0 * pi * math::max(x(i, 0), r_floor));
+  }
+};
+
+// Stable step: dt = cfl * min_a h / (c_a + |v_a|), also bounded by cfl * sqrt(h / |a_a|).
+struct StableStep {
+  ViewN<double, 2> v, a;
+  View1<double> rho;
+  View1<int> material;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
+  double h;
+  KOKKOS_INLINE_FUNCTION void operator()(const int i, double& dt_min) const {
+    const MaterialParams& m = materials(material(i));
+    const double c = math::sqrt(m.p_wave_modulus() / rho(i));
+    const double speed = math::sqrt(v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
+    double dt = h / (c + speed);
+    const double acc = math::sqrt(a(i, 0) * a(i, 0) + a(i, 1) * a(i, 1));
+    if (acc > 0) dt = math::min(dt, math::sqrt(h / acc));
+    if (!(dt == dt)) dt = 0;  // NaN -> zero step, caught by the driver
+    dt_min = math::min(dt_min, dt);
+  }
+};
+
+struct Energies {
+  double kinetic = 0;    // J
+  double internal = 0;   // J (strain energy + dissipated heat)
+  double potential = 0;  // J, gravity, relative to z = 0
+  double total() const { return kinetic + internal + potential; }
+};
+
+// Kinetic, internal and gravitational energy of the real particles (ring masses).
+// Three plain sums: portable between Kokkos 3.4 and 4.x without a custom reducer.
+inline Energies energy_sums(const Particles& p, double gravity) {
+  using policy = Kokkos::RangePolicy<ExecSpace>;
+  auto x = p.x; auto v = p.v; auto m = p.mass; auto u = p.internal_energy;
+  Energies e;
+  Kokkos::parallel_reduce("tamp::energy::kinetic", policy(0, p.n_real), KOKKOS_LAMBDA(int i, double& s) {
+    s += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
+  }, e.kinetic);
+  Kokkos::parallel_reduce("tamp::energy::internal", policy(0, p.n_real), KOKKOS_LAMBDA(int i, double& s) {
+    s += m(i) * u(i);
+  }, e.internal);
+  Kokkos::parallel_reduce("tamp::energy::potential", policy(0, p.n_real), KOKKOS_LAMBDA(int i, double& s) {
+    s += m(i) * gravity * x(i, 1);
+  }, e.potential);
+  return e;
+}
+
+}  // namespace tamp

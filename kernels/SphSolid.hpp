@@ -1,0 +1,233 @@
+// Axisymmetric SPH for solids: the two pair loops of a step.
+//
+// Formulation: ring-mass form (after Garcia-Senz et al. 2009, MNRAS 392, 346; equations
+// in docs/sph.md). Particle a is a ring of mass m_a; 2D kernel sums over the (r, z) plane
+// use ring masses and the areal density eta = 2 pi r rho. Writing rho a = div(sigma) +
+// hoop terms as (1/eta) div(2 pi r sigma) - sigma_tt/(rho r) e_r gives a pair term that is
+// symmetric in ring masses, so the discrete equations conserve momentum in z and total
+// energy exactly (semi-discretely) when the strain rate uses the conjugate weights m_b/eta_a:
+//   grad v_a   = sum_b (m_b / eta_a) (v_b - v_a) (x) grad_a W_ab
+//   d_tt       = v_r / r,   drho/dt = -rho (dv_r/dr + dv_z/dz + v_r/r)
+//   dv_a/dt    = sum_b m_b (S_a + S_b - Pi_ab I) . grad_a W_ab - sigma_tt,a / (rho_a r_a) e_r
+//   S_a        = sigma_a / (2 pi r_a rho_a^2)
+// with 1/r regularised as 1/max(r, c h) near the axis. The axis and rigid walls are
+// represented by mirror particles (kernels/Mirror.hpp).
+#pragma once
+#include "core/Material.hpp"
+#include "core/Particles.hpp"
+#include "kernels/NeighbourList.hpp"
+#include "kernels/Wendland.hpp"
+#include "models/StressUpdate.hpp"
+
+namespace tamp {
+
+struct SphParams {
+  double h = 0;               // smoothing length, m
+  double alpha = 0.5;         // Monaghan viscosity, linear
+  double beta = 0.0;          // Monaghan viscosity, quadratic
+  double art_eps = 0.0;       // Gray-Monaghan-Swift epsilon
+  double art_n = 2.55;        // exponent n
+  double inv_w_dp = 0;        // 1 / W(dp)
+  double r_min = 0;           // regularised radius c h, m
+  double gravity = 0;         // m/s2 in -z
+  double damping = 0;         // 1/s
+  int kernel_correction = 1;  // first-order gradient correction in the velocity gradient
+};
+
+// In-plane principal decomposition of a symmetric 2x2 tensor (a_rr, a_zz, a_rz):
+// values l1 >= l2 and the unit eigenvector (c, s) of l1.
+KOKKOS_INLINE_FUNCTION void principal_2x2(double arr, double azz, double arz, double& l1,
+                                          double& l2, double& c, double& s) {
+  const double mean = 0.5 * (arr + azz);
+  const double half = 0.5 * (arr - azz);
+  const double rad = math::sqrt(half * half + arz * arz);
+  l1 = mean + rad;
+  l2 = mean - rad;
+  const double theta = 0.5 * math::atan2(2.0 * arz, arr - azz);
+  c = math::cos(theta);
+  s = math::sin(theta);
+}
+
+// Loop A: velocity gradient (with the hoop rate), continuity, stress update through the
+// material model, internal energy, artificial stress R. Writes only particle a.
+struct StrainRateAndStress {
+  ViewN<double, 2> x, v;
+  View1<double> mass, rho, plastic_strain, internal_energy;
+  ViewN<double, 4> sigma;
+  ViewN<double, 3> art_stress;
+  View1<int> material;
+  View1<int> offsets, neighbours;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
+  SphParams p;
+  double dt;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
+    const Wendland2D W(p.h);
+    const double xa = x(a, 0), za = x(a, 1);
+    const double vra = v(a, 0), vza = v(a, 1);
+    const double r_reg = math::max(xa, p.r_min);
+    const double inv_eta_a = 1.0 / (2.0 * pi * r_reg * rho(a));
+    double G00 = 0, G01 = 0, G10 = 0, G11 = 0;  // sum V_b (v_b - v_a)_i dW/dx_j
+    double B00 = 0, B01 = 0, B10 = 0, B11 = 0;  // sum V_b (x_b - x_a)_i dW/dx_j
+    for (int k = offsets(a); k < offsets(a + 1); ++k) {
+      const int b = neighbours(k);
+      const double dr = xa - x(b, 0), dz = za - x(b, 1);
+      const double r = math::sqrt(dr * dr + dz * dz);
+      if (r >= 2.0 * p.h || r <= 0.0) continue;
+      const double f = W.derivative(r) / r;  // grad_a W = f * (x_a - x_b)
+      const double gr = f * dr, gz = f * dz;
+      const double Vb = mass(b) * inv_eta_a;
+      const double dvr = v(b, 0) - vra, dvz = v(b, 1) - vza;
+      G00 += Vb * dvr * gr; G01 += Vb * dvr * gz;
+      G10 += Vb * dvz * gr; G11 += Vb * dvz * gz;
+      B00 -= Vb * dr * gr; B01 -= Vb * dr * gz;
+      B10 -= Vb * dz * gr; B11 -= Vb * dz * gz;
+    }
+    double L00 = G00, L01 = G01, L10 = G10, L11 = G11;
+    if (p.kernel_correction) {
+      // L = G B^-1 reproduces linear velocity fields exactly (Randles & Libersky 1996).
+      const double det = B00 * B11 - B01 * B10;
+      if (math::abs(det) > 0.25) {  // well-conditioned (det = 1 in the bulk)
+        const double i00 = B11 / det, i01 = -B01 / det, i10 = -B10 / det, i11 = B00 / det;
+        L00 = G00 * i00 + G01 * i10; L01 = G00 * i01 + G01 * i11;
+        L10 = G10 * i00 + G11 * i10; L11 = G10 * i01 + G11 * i11;
+      }
+    }
+    const double d_tt = vra / r_reg;
+    const double div = L00 + L11 + d_tt;
+    // L01 = dv_r/dz, L10 = dv_z/dr
+    const double deps[4] = {L00 * dt, L11 * dt, d_tt * dt, 0.5 * (L01 + L10) * dt};
+    const double w_rz_dt = 0.5 * (L01 - L10) * dt;
+
+    const MaterialParams& m = materials(material(a));
+    double s[4] = {sigma(a, 0), sigma(a, 1), sigma(a, 2), sigma(a, 3)};
+    const double s_old[4] = {s[0], s[1], s[2], s[3]};
+    double eps_p = plastic_strain(a);
+    update_stress(m, s, deps, w_rz_dt, eps_p);
+
+    const double rho_new = rho(a) * math::exp(-div * dt);
+    // Stress power per unit mass, trapezoidal in the stress: du = sigma : deps / rho.
+    double work = 0;
+    for (int c = 0; c < 3; ++c) work += 0.5 * (s[c] + s_old[c]) * deps[c];
+    work += 2.0 * 0.5 * (s[3] + s_old[3]) * deps[3];
+    internal_energy(a) += work / (0.5 * (rho(a) + rho_new));
+
+    for (int c = 0; c < 4; ++c) sigma(a, c) = s[c];
+    plastic_strain(a) = eps_p;
+    rho(a) = rho_new;
+
+    // Artificial stress (Gray, Monaghan & Swift 2001): R' = -eps sigma' / rho^2 for each
+    // tensile in-plane principal stress sigma' > 0, rotated back to (r, z).
+    double l1, l2, c, sn;
+    principal_2x2(s[0], s[1], s[3], l1, l2, c, sn);
+    const double k = -p.art_eps / (rho_new * rho_new);
+    const double R1 = l1 > 0 ? k * l1 : 0.0, R2 = l2 > 0 ? k * l2 : 0.0;
+    art_stress(a, 0) = R1 * c * c + R2 * sn * sn;
+    art_stress(a, 1) = R1 * sn * sn + R2 * c * c;
+    art_stress(a, 2) = (R1 - R2) * c * sn;
+  }
+};
+
+// Loop B: acceleration from the stress divergence (symmetric SPH form), artificial
+// stress, Monaghan viscosity, hoop terms, gravity, damping and external accelerations;
+// and the rate of viscous heating (the energy-conjugate of the viscous pair force).
+// The artificial stress is a numerical stabiliser whose work is not tracked.
+// Writes only particle a.
+struct Acceleration {
+  ViewN<double, 2> x, v, a, a_ext;
+  View1<double> mass, rho, du_visc;
+  ViewN<double, 4> sigma;
+  ViewN<double, 3> art_stress;
+  View1<int> material;
+  View1<int> offsets, neighbours;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
+  SphParams p;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    const Wendland2D W(p.h);
+    const double xa = x(i, 0), za = x(i, 1);
+    const double vra = v(i, 0), vza = v(i, 1);
+    const double rhoa = rho(i);
+    const double r_reg = math::max(xa, p.r_min);
+    const double ia2 = 1.0 / (2.0 * pi * r_reg * rhoa * rhoa);
+    const double Sa_rr = sigma(i, 0) * ia2, Sa_zz = sigma(i, 1) * ia2, Sa_rz = sigma(i, 3) * ia2;
+    const double Ra_rr = art_stress(i, 0), Ra_zz = art_stress(i, 1), Ra_rz = art_stress(i, 2);
+    const double ca = materials(material(i)).wave_speed();
+    double ar = 0, az = 0, heat = 0;
+    for (int k = offsets(i); k < offsets(i + 1); ++k) {
+      const int b = neighbours(k);
+      const double dr = xa - x(b, 0), dz = za - x(b, 1);
+      const double r2 = dr * dr + dz * dz;
+      const double r = math::sqrt(r2);
+      if (r >= 2.0 * p.h || r <= 0.0) continue;
+      const double f = W.derivative(r) / r;
+      const double gr = f * dr, gz = f * dz;
+      const double rhob = rho(b);
+      // Mirror ghosts across the axis have r < 0 and a negative ring mass (Mirror.hpp):
+      // m_b S_b keeps the source's sign; the viscous and artificial-stress pair weights
+      // use |m_b| / (2 pi mean r).
+      const double rb = math::max(math::abs(x(b, 0)), p.r_min);
+      const double ib2 = 1.0 / (2.0 * pi * (x(b, 0) < 0 ? -rb : rb) * rhob * rhob);
+      double Srr = Sa_rr + sigma(b, 0) * ib2;
+      double Szz = Sa_zz + sigma(b, 1) * ib2;
+      double Srz = Sa_rz + sigma(b, 3) * ib2;
+      const double dvr = vra - v(b, 0), dvz = vza - v(b, 1);
+      const double mb = mass(b);
+      if (p.art_eps > 0) {
+        const double fab = math::pow(W.value(r) * p.inv_w_dp, p.art_n);
+        const double w = fab / (pi * (r_reg + rb)) * (mb < 0 ? -1.0 : 1.0);  // |m_b| R / (2 pi r)
+        const double Xrr = w * (Ra_rr + art_stress(b, 0));
+        const double Xzz = w * (Ra_zz + art_stress(b, 1));
+        const double Xrz = w * (Ra_rz + art_stress(b, 2));
+        Srr += Xrr; Szz += Xzz; Srz += Xrz;
+      }
+      const double vdotx = dvr * dr + dvz * dz;
+      double Pi = 0;
+      if (vdotx < 0) {
+        const double mu = p.h * vdotx / (r2 + 0.01 * p.h * p.h);
+        const double cb = materials(material(b)).wave_speed();
+        Pi = (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob)) /
+             (pi * (r_reg + rb)) * (mb < 0 ? -1.0 : 1.0);  // |m_b| Pi / (2 pi mean r)
+      }
+      ar += mb * ((Srr - Pi) * gr + Srz * gz);
+      az += mb * (Srz * gr + (Szz - Pi) * gz);
+      heat += 0.5 * mb * Pi * (dvr * gr + dvz * gz);
+    }
+    ar -= sigma(i, 2) / (rhoa * r_reg);
+    az -= p.gravity;
+    ar += a_ext(i, 0) - p.damping * vra;
+    az += a_ext(i, 1) - p.damping * vza;
+    a(i, 0) = ar;
+    a(i, 1) = az;
+    du_visc(i) = heat;
+  }
+};
+
+// Shepard-filtered stress (periodic regularisation, Bui et al. 2008):
+//   sigma_a <- sum_b sigma_b W_ab V_b / sum_b W_ab V_b   (b includes a)
+// reads sigma, writes sigma_tmp; the caller swaps.
+struct StressRegularisation {
+  ViewN<double, 2> x;
+  View1<double> planar_mass, rho;
+  ViewN<double, 4> sigma, sigma_out;
+  View1<int> offsets, neighbours;
+  double h;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
+    const Wendland2D W(h);
+    const double Va = planar_mass(a) / rho(a);
+    const double w0 = W.value(0.0) * Va;
+    double sum_w = w0;
+    double s[4] = {sigma(a, 0) * w0, sigma(a, 1) * w0, sigma(a, 2) * w0, sigma(a, 3) * w0};
+    for (int k = offsets(a); k < offsets(a + 1); ++k) {
+      const int b = neighbours(k);
+      const double dr = x(a, 0) - x(b, 0), dz = x(a, 1) - x(b, 1);
+      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b);
+      sum_w += w;
+      for (int c = 0; c < 4; ++c) s[c] += sigma(b, c) * w;
+    }
+    for (int c = 0; c < 4; ++c) sigma_out(a, c) = s[c] / sum_w;
+  }
+};
+
+}  // namespace tamp

@@ -1,0 +1,526 @@
+// Input decks: parsing, validation messages, round trip through to_toml.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/Deck.hpp"
+
+using tamp::Config;
+using tamp::DeckError;
+using tamp::parse_deck;
+using tamp::WallType;
+
+namespace {
+
+const char* const kValidDeck = R"(# a footing on two layers
+gravity = 9.8
+damping = 5            # integer where a float is expected
+
+[run]
+name = "footing"
+end_time = 0.5
+output_interval = 0.01
+cfl = 0.25
+progress_interval = 1
+max_steps = 1000
+
+[sph]
+spacing = 0.005
+h_factor = 1.5
+alpha = 1.0
+beta = 2
+artificial_stress = 0.2
+artificial_stress_n = 4
+regularise_every = 20
+kernel_correction = false
+neighbour_skin = 0.1
+axis_radius_factor = 0.25
+
+[[materials]]
+name = "sand"
+model = "mohr-coulomb"
+unit_weight = 18000
+G = 1e7
+nu = 0.3
+c = 500
+phi_deg = 30
+psi_deg = 5
+tension_cutoff = 100
+
+[[materials]]
+name = "clay"
+model = "tresca"
+density = 1700
+G = 5e6
+nu = 0.49
+Su = 20e3
+
+[[materials]]
+name = "steel"
+model = "elastic"
+density = 7850
+G = 80e9
+nu = 0.0
+
+[[blocks]]
+material = "sand"
+r = [0, 0.5]
+z = [0, 0.3]
+
+[[blocks]]
+material = "clay"
+r = [0.0, 0.5]
+z = [0.3, 0.6]
+velocity = [0, -1.5]
+
+[boundaries]
+bottom = { type = "fixed", z = 0 }
+outer = { type = "roller", r = 0.5 }
+)";
+
+// A minimal valid deck, assembled from parts so that tests can change one of them.
+struct Parts {
+  std::string top;  // top-level keys (must precede the tables)
+  std::string sph = "[sph]\nspacing = 0.01\n";
+  std::string materials =
+      "[[materials]]\nname = \"soil\"\nmodel = \"elastic\"\ndensity = 2000\nG = 1e6\nnu = 0.3\n";
+  std::string blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0, 1]\nz = [0, 1]\n";
+  std::string rest;
+  std::string text() const { return top + "\n" + sph + "\n" + materials + "\n" + blocks + "\n" + rest; }
+};
+
+// Parses `text` expecting a DeckError whose message contains every one of `parts`.
+std::string require_error(const std::string& text, const std::vector<std::string>& parts) {
+  std::string msg;
+  try {
+    parse_deck(text, "deck.toml");
+  } catch (const DeckError& e) {
+    msg = e.what();
+  }
+  INFO("deck:\n" << text);
+  REQUIRE(!msg.empty());
+  INFO("message: " << msg);
+  CHECK(msg.rfind("deck.toml: ", 0) == 0);
+  for (const auto& p : parts) CHECK_THAT(msg, Catch::Contains(p));
+  return msg;
+}
+
+void require_same(const Config& a, const Config& b) {
+  CHECK(a.run.name == b.run.name);
+  CHECK(a.run.end_time == b.run.end_time);
+  CHECK(a.run.output_interval == b.run.output_interval);
+  CHECK(a.run.cfl == b.run.cfl);
+  CHECK(a.run.progress_interval == b.run.progress_interval);
+  CHECK(a.run.max_steps == b.run.max_steps);
+  CHECK(a.sph.spacing == b.sph.spacing);
+  CHECK(a.sph.h_factor == b.sph.h_factor);
+  CHECK(a.sph.alpha == b.sph.alpha);
+  CHECK(a.sph.beta == b.sph.beta);
+  CHECK(a.sph.artificial_stress == b.sph.artificial_stress);
+  CHECK(a.sph.artificial_stress_n == b.sph.artificial_stress_n);
+  CHECK(a.sph.regularise_every == b.sph.regularise_every);
+  CHECK(a.sph.kernel_correction == b.sph.kernel_correction);
+  CHECK(a.sph.neighbour_skin == b.sph.neighbour_skin);
+  CHECK(a.sph.axis_radius_factor == b.sph.axis_radius_factor);
+  CHECK(a.gravity == b.gravity);
+  CHECK(a.damping == b.damping);
+  REQUIRE(a.materials.size() == b.materials.size());
+  for (std::size_t i = 0; i < a.materials.size(); ++i) {
+    const auto& x = a.materials[i];
+    const auto& y = b.materials[i];
+    CHECK(x.name == y.name);
+    CHECK(x.model == y.model);
+    CHECK(x.density == y.density);
+    CHECK(x.shear_modulus == y.shear_modulus);
+    CHECK(x.poisson_ratio == y.poisson_ratio);
+    CHECK(x.cohesion == y.cohesion);
+    CHECK(x.phi_deg == y.phi_deg);
+    CHECK(x.psi_deg == y.psi_deg);
+    CHECK(x.tension_cutoff == y.tension_cutoff);
+  }
+  REQUIRE(a.blocks.size() == b.blocks.size());
+  for (std::size_t i = 0; i < a.blocks.size(); ++i) {
+    const auto& x = a.blocks[i];
+    const auto& y = b.blocks[i];
+    CHECK(x.material == y.material);
+    CHECK(x.r_min == y.r_min);
+    CHECK(x.r_max == y.r_max);
+    CHECK(x.z_min == y.z_min);
+    CHECK(x.z_max == y.z_max);
+    CHECK(x.velocity_r == y.velocity_r);
+    CHECK(x.velocity_z == y.velocity_z);
+  }
+  for (auto [w, v] : {std::pair{a.bottom, b.bottom}, std::pair{a.top, b.top}, std::pair{a.outer, b.outer}}) {
+    CHECK(w.type == v.type);
+    CHECK(w.position == v.position);
+  }
+}
+
+std::filesystem::path temp_dir(const std::string& tag) {
+  std::random_device rd;
+  auto dir = std::filesystem::temp_directory_path() / ("tamp_" + tag + "_" + std::to_string(rd()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST_CASE("Deck: a valid deck parses with the right values", "[deck]") {
+  const Config c = parse_deck(kValidDeck, "valid.toml");
+  CHECK(c.source_file == "valid.toml");
+  CHECK(c.gravity == 9.8);
+  CHECK(c.damping == 5.0);
+  CHECK(c.run.name == "footing");
+  CHECK(c.run.end_time == 0.5);
+  CHECK(c.run.output_interval == 0.01);
+  CHECK(c.run.cfl == 0.25);
+  CHECK(c.run.progress_interval == 1.0);
+  CHECK(c.run.max_steps == 1000);
+  CHECK(c.sph.spacing == 0.005);
+  CHECK(c.sph.h_factor == 1.5);
+  CHECK(c.sph.alpha == 1.0);
+  CHECK(c.sph.beta == 2.0);
+  CHECK(c.sph.artificial_stress == 0.2);
+  CHECK(c.sph.artificial_stress_n == 4.0);
+  CHECK(c.sph.regularise_every == 20);
+  CHECK(c.sph.kernel_correction == false);
+  CHECK(c.sph.neighbour_skin == 0.1);
+  CHECK(c.sph.axis_radius_factor == 0.25);
+
+  REQUIRE(c.materials.size() == 3);
+  const auto& sand = c.materials[0];
+  CHECK(sand.name == "sand");
+  CHECK(sand.model == "mohr-coulomb");
+  CHECK(sand.density == Approx(18000.0 / 9.81).epsilon(1e-15));
+  CHECK(sand.shear_modulus == 1e7);
+  CHECK(sand.poisson_ratio == 0.3);
+  CHECK(sand.cohesion == 500.0);
+  CHECK(sand.phi_deg == 30.0);
+  CHECK(sand.psi_deg == 5.0);
+  CHECK(sand.tension_cutoff == 100.0);
+  const auto& clay = c.materials[1];
+  CHECK(clay.name == "clay");
+  CHECK(clay.model == "tresca");
+  CHECK(clay.density == 1700.0);
+  CHECK(clay.shear_modulus == 5e6);
+  CHECK(clay.poisson_ratio == 0.49);
+  CHECK(clay.cohesion == 20e3);
+  CHECK(clay.phi_deg == 0.0);
+  CHECK(clay.psi_deg == 0.0);
+  CHECK(clay.tension_cutoff == 0.0);
+  const auto& steel = c.materials[2];
+  CHECK(steel.model == "elastic");
+  CHECK(steel.poisson_ratio == 0.0);
+  CHECK(steel.cohesion == 0.0);
+
+  REQUIRE(c.blocks.size() == 2);
+  CHECK(c.blocks[0].material == "sand");
+  CHECK(c.blocks[0].r_min == 0.0);
+  CHECK(c.blocks[0].r_max == 0.5);
+  CHECK(c.blocks[0].z_min == 0.0);
+  CHECK(c.blocks[0].z_max == 0.3);
+  CHECK(c.blocks[0].velocity_r == 0.0);
+  CHECK(c.blocks[0].velocity_z == 0.0);
+  CHECK(c.blocks[1].material == "clay");
+  CHECK(c.blocks[1].z_min == 0.3);
+  CHECK(c.blocks[1].z_max == 0.6);
+  CHECK(c.blocks[1].velocity_z == -1.5);
+
+  CHECK(c.bottom.type == WallType::Fixed);
+  CHECK(c.bottom.position == 0.0);
+  CHECK(c.top.type == WallType::None);
+  CHECK(c.outer.type == WallType::Roller);
+  CHECK(c.outer.position == 0.5);
+}
+
+TEST_CASE("Deck: omitted keys keep the defaults of Config.hpp", "[deck]") {
+  const Config c = parse_deck(Parts{}.text(), "minimal.toml");
+  const Config d;
+  CHECK(c.run.name == d.run.name);
+  CHECK(c.run.end_time == d.run.end_time);
+  CHECK(c.run.cfl == d.run.cfl);
+  CHECK(c.run.max_steps == d.run.max_steps);
+  CHECK(c.sph.h_factor == d.sph.h_factor);
+  CHECK(c.sph.artificial_stress_n == d.sph.artificial_stress_n);
+  CHECK(c.sph.kernel_correction == d.sph.kernel_correction);
+  CHECK(c.gravity == d.gravity);
+  CHECK(c.damping == d.damping);
+  CHECK(c.bottom.type == WallType::None);
+  CHECK(c.materials[0].phi_deg == 0.0);
+  CHECK(c.materials[0].tension_cutoff == 0.0);
+}
+
+TEST_CASE("Deck: to_toml round trip gives the same Config", "[deck]") {
+  SECTION("from a parsed deck") {
+    const Config a = parse_deck(kValidDeck, "valid.toml");
+    const std::string text = tamp::to_toml(a);
+    INFO(text);
+    const Config b = parse_deck(text, "roundtrip.toml");
+    require_same(a, b);
+  }
+  SECTION("from a Config built in code, with awkward values") {
+    Config a;
+    a.run.name = "odd \"name\"\twith\\escapes\n";
+    a.run.end_time = 0.1 + 0.2;
+    a.run.max_steps = 123456789012L;
+    a.sph.spacing = 1.0 / 3.0;
+    a.sph.kernel_correction = false;
+    a.gravity = 0;
+    a.damping = 1e-300;
+    tamp::MaterialSpec m;
+    m.name = "ünïcode soil";
+    m.model = "mohr-coulomb";
+    m.density = 1234.5678901234567;
+    m.shear_modulus = 2.5e8;
+    m.poisson_ratio = 0.4999999;
+    m.cohesion = 1e3;
+    m.phi_deg = 35.123456789;
+    m.psi_deg = 35.123456789;
+    m.tension_cutoff = 5;
+    a.materials.push_back(m);
+    tamp::MaterialSpec t;
+    t.name = "clay";
+    t.model = "tresca";
+    t.density = 1800;
+    t.shear_modulus = 1e6;
+    t.poisson_ratio = 0.45;
+    t.cohesion = 12345.6;
+    a.materials.push_back(t);
+    a.blocks.push_back({"clay", 0.0, 0.7, -0.25, 1e-3, 0.1, -2.0 / 7.0});
+    a.blocks.push_back({m.name, 0.1, 0.2, 5.0, 6.0, 0.0, 0.0});
+    a.bottom = {WallType::Roller, -0.25};
+    a.top = {WallType::Fixed, 2.0};
+    a.outer = {WallType::None, 0.0};
+    const std::string text = tamp::to_toml(a);
+    INFO(text);
+    const Config b = parse_deck(text, "roundtrip.toml");
+    require_same(a, b);
+  }
+}
+
+TEST_CASE("Deck: the message has the documented form", "[deck]") {
+  Parts p;
+  p.materials += "[[materials]]\nname = \"clay\"\nmodel = \"elastic\"\ndensity = 1800\nG = 1e6\nnu = 0.6\n";
+  const std::string msg = require_error(p.text(), {});
+  CHECK(msg == "deck.toml: materials[1].nu = 0.6 is out of range; allowed: 0 <= nu < 0.5");
+}
+
+TEST_CASE("Deck: unknown keys are rejected", "[deck]") {
+  SECTION("top level") {
+    Parts p;
+    p.top = "gravty = 9.81\n";
+    require_error(p.text(), {"gravty = 9.81", "is not a known key", "gravity"});
+  }
+  SECTION("inside [[materials]]") {
+    Parts p;
+    p.materials +=
+        "[[materials]]\nname = \"b\"\nmodel = \"elastic\"\ndensity = 1\nG = 1\nnu = 0\ncolour = \"red\"\n";
+    require_error(p.text(), {"materials[1].colour = \"red\"", "is not a known key", "tension_cutoff"});
+  }
+  SECTION("inside [run]") {
+    Parts p;
+    p.rest = "[run]\nend_tme = 1.0\n";
+    require_error(p.text(), {"run.end_tme = 1.0", "is not a known key"});
+  }
+  SECTION("inside an inline boundary table") {
+    Parts p;
+    p.rest = "[boundaries]\nbottom = { type = \"fixed\", r = 0.0 }\n";
+    require_error(p.text(), {"boundaries.bottom.r = 0.0", "is not a known key", "type, z"});
+  }
+  SECTION("inside [[blocks]]") {
+    Parts p;
+    p.blocks += "[[blocks]]\nmaterial = \"soil\"\nr = [0, 1]\nz = [1, 2]\nvelocty = [0, 1]\n";
+    require_error(p.text(), {"blocks[1].velocty = [0, 1]", "is not a known key"});
+  }
+}
+
+TEST_CASE("Deck: wrong types are rejected", "[deck]") {
+  SECTION("string for a number") {
+    Parts p;
+    p.rest = "[run]\nend_time = \"long\"\n";
+    require_error(p.text(), {"run.end_time = \"long\"", "wrong type (string)", "end_time > 0"});
+  }
+  SECTION("float for an integer") {
+    Parts p;
+    p.rest = "[run]\nmax_steps = 1.5\n";
+    require_error(p.text(), {"run.max_steps = 1.5", "wrong type (float)", "an integer"});
+  }
+  SECTION("number for a boolean") {
+    Parts p;
+    p.sph += "kernel_correction = 1\n";
+    require_error(p.text(), {"sph.kernel_correction = 1", "wrong type (integer)", "true or false"});
+  }
+  SECTION("table where an array of tables is expected") {
+    Parts p;
+    p.materials = "[materials]\nname = \"soil\"\n";
+    require_error(p.text(), {"materials = { name = \"soil\" }", "wrong type (table)", "[[materials]]"});
+  }
+  SECTION("array element") {
+    Parts p;
+    p.blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0, \"1\"]\nz = [0, 1]\n";
+    require_error(p.text(), {"blocks[0].r[1] = \"1\"", "wrong type (string)"});
+  }
+}
+
+TEST_CASE("Deck: out-of-range values are rejected", "[deck]") {
+  SECTION("nu = 0.5") {
+    Parts p;
+    p.materials = "[[materials]]\nname = \"soil\"\nmodel = \"elastic\"\ndensity = 2000\nG = 1e6\nnu = 0.5\n";
+    require_error(p.text(), {"materials[0].nu = 0.5", "out of range", "0 <= nu < 0.5"});
+  }
+  SECTION("phi_deg = 90") {
+    Parts p;
+    p.materials += "phi_deg = 90\n";
+    require_error(p.text(), {"materials[0].phi_deg = 90", "out of range", "0 <= phi_deg < 90"});
+  }
+  SECTION("negative density") {
+    Parts p;
+    p.materials = "[[materials]]\nname = \"soil\"\nmodel = \"elastic\"\ndensity = -1800\nG = 1e6\nnu = 0.3\n";
+    require_error(p.text(), {"materials[0].density = -1800", "out of range", "density > 0"});
+  }
+  SECTION("psi above phi") {
+    Parts p;
+    p.materials += "phi_deg = 20\npsi_deg = 25.5\n";
+    require_error(p.text(), {"materials[0].psi_deg = 25.5", "psi_deg <= phi_deg"});
+  }
+  SECTION("cfl above 1") {
+    Parts p;
+    p.rest = "[run]\ncfl = 1.2\n";
+    require_error(p.text(), {"run.cfl = 1.2", "0 < cfl <= 1"});
+  }
+  SECTION("inverted block") {
+    Parts p;
+    p.blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0.5, 0.2]\nz = [0, 1]\n";
+    require_error(p.text(), {"blocks[0].r = [0.5, 0.2]", "out of range", "r_min < r_max"});
+  }
+  SECTION("non-finite value") {
+    Parts p;
+    p.top = "gravity = inf\n";
+    require_error(p.text(), {"gravity = inf", "not a finite number"});
+  }
+  SECTION("unknown model") {
+    Parts p;
+    p.materials = "[[materials]]\nname = \"soil\"\nmodel = \"cam-clay\"\ndensity = 2000\nG = 1e6\nnu = 0.3\n";
+    require_error(p.text(), {"materials[0].model = \"cam-clay\"", "\"mohr-coulomb\""});
+  }
+  SECTION("top wall below the bottom wall") {
+    Parts p;
+    p.rest = "[boundaries]\nbottom = { type = \"fixed\", z = 1.0 }\ntop = { type = \"roller\", z = 0.5 }\n";
+    require_error(p.text(), {"boundaries.top.z = 0.5", "top.z > bottom.z"});
+  }
+}
+
+TEST_CASE("Deck: material rules", "[deck]") {
+  const std::string head = "[[materials]]\nname = \"m\"\nG = 1e6\nnu = 0.3\n";
+  SECTION("density and unit_weight together") {
+    Parts p;
+    p.materials = head + "model = \"elastic\"\ndensity = 2000\nunit_weight = 19620\n";
+    p.blocks = "[[blocks]]\nmaterial = \"m\"\nr = [0, 1]\nz = [0, 1]\n";
+    require_error(p.text(), {"materials[0].unit_weight = 19620", "exactly one of density"});
+  }
+  SECTION("neither density nor unit_weight") {
+    Parts p;
+    p.materials = head + "model = \"elastic\"\n";
+    require_error(p.text(), {"materials[0].density is missing", "exactly one of density"});
+  }
+  SECTION("tresca with c") {
+    Parts p;
+    p.materials = head + "model = \"tresca\"\ndensity = 2000\nc = 1000\n";
+    require_error(p.text(), {"materials[0].c = 1000", "Su"});
+  }
+  SECTION("tresca with phi") {
+    Parts p;
+    p.materials = head + "model = \"tresca\"\ndensity = 2000\nSu = 1000\nphi_deg = 10\n";
+    require_error(p.text(), {"materials[0].phi_deg = 10", "tresca"});
+  }
+  SECTION("tresca without Su") {
+    Parts p;
+    p.materials = head + "model = \"tresca\"\ndensity = 2000\n";
+    require_error(p.text(), {"materials[0].Su is missing", "Su > 0"});
+  }
+  SECTION("duplicate names") {
+    Parts p;
+    p.materials += "\n" + head + "model = \"elastic\"\ndensity = 1\n" + head +
+                   "model = \"elastic\"\ndensity = 1\n";
+    require_error(p.text(), {"materials[2].name = \"m\"", "materials[1]"});
+  }
+}
+
+TEST_CASE("Deck: a block must name a known material", "[deck]") {
+  Parts p;
+  p.blocks = "[[blocks]]\nmaterial = \"rock\"\nr = [0, 1]\nz = [0, 1]\n";
+  require_error(p.text(), {"blocks[0].material = \"rock\"", "not a known material", "\"soil\""});
+}
+
+TEST_CASE("Deck: spacing is required", "[deck]") {
+  SECTION("no [sph] table") {
+    Parts p;
+    p.sph = "";
+    require_error(p.text(), {"sph.spacing is missing", "spacing > 0"});
+  }
+  SECTION("[sph] without spacing") {
+    Parts p;
+    p.sph = "[sph]\nh_factor = 1.2\n";
+    require_error(p.text(), {"sph.spacing is missing", "spacing > 0"});
+  }
+}
+
+TEST_CASE("Deck: at least one material and one block", "[deck]") {
+  SECTION("no blocks") {
+    Parts p;
+    p.blocks = "";
+    require_error(p.text(), {"blocks is missing", "[[blocks]]"});
+  }
+  SECTION("empty blocks array") {
+    Parts p;
+    p.blocks = "";
+    p.top = "blocks = []\n";
+    require_error(p.text(), {"blocks = []", "has no entries", "at least one"});
+  }
+  SECTION("no materials") {
+    Parts p;
+    p.materials = "";
+    require_error(p.text(), {"materials is missing", "[[materials]]"});
+  }
+}
+
+TEST_CASE("Deck: a TOML syntax error names the line and column", "[deck]") {
+  const std::string text = "[run]\nend_time = 0.1\nname = \"unterminated\n";
+  const std::string msg = require_error(text, {"syntax error", "line 3", "column"});
+  (void)msg;
+}
+
+TEST_CASE("Deck: load_deck reads a file and names it in errors", "[deck]") {
+  const auto dir = temp_dir("deck");
+  const std::string good = (dir / "good.toml").string();
+  const std::string bad = (dir / "bad.toml").string();
+  {
+    std::ofstream(good) << kValidDeck;
+    Parts p;
+    p.rest = "[run]\nend_time = -1\n";
+    std::ofstream(bad) << p.text();
+  }
+  const Config c = tamp::load_deck(good);
+  CHECK(c.source_file == good);
+  CHECK(c.run.name == "footing");
+  CHECK(c.materials.size() == 3);
+
+  try {
+    tamp::load_deck(bad);
+    FAIL("expected a DeckError");
+  } catch (const DeckError& e) {
+    CHECK_THAT(e.what(), Catch::StartsWith(bad + ": run.end_time = -1 is out of range"));
+  }
+  const std::string missing = (dir / "missing.toml").string();
+  try {
+    tamp::load_deck(missing);
+    FAIL("expected a DeckError");
+  } catch (const DeckError& e) {
+    CHECK_THAT(e.what(), Catch::Contains(missing));
+  }
+  std::filesystem::remove_all(dir);
+}

@@ -1,0 +1,226 @@
+// Results output: HDF5 snapshots, XDMF series, CSV.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/Output.hpp"
+
+namespace fs = std::filesystem;
+using tamp::ParticleSnapshot;
+
+namespace {
+
+fs::path temp_dir(const std::string& tag) {
+  std::random_device rd;
+  auto dir = fs::temp_directory_path() / ("tamp_" + tag + "_" + std::to_string(rd()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Removes the directory when the test ends, pass or fail.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& tag) : path(temp_dir(tag)) {}
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+ParticleSnapshot make_snapshot(std::size_t n, long step, double time) {
+  ParticleSnapshot s;
+  s.step = step;
+  s.time = time;
+  s.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = static_cast<double>(i);
+    s.r[i] = 0.001 * x + 1.0 / 3.0;
+    s.z[i] = -0.5 + 1e-3 * std::sin(x);
+    s.v_r[i] = 1e-7 * x;
+    s.v_z[i] = -std::sqrt(x + 0.1);
+    s.density[i] = 1800.0 + x / 7.0;
+    s.s_rr[i] = -1e5 * (1 + x);
+    s.s_zz[i] = -2e5 * (1 + x);
+    s.s_tt[i] = -1.5e5 + x;
+    s.s_rz[i] = 3.3e3 * std::cos(x);
+    s.plastic_strain[i] = x * 1e-4;
+    s.internal_energy[i] = 1e-12 * x * x;
+    s.mass[i] = 0.012345678901234567 * (1 + x);
+    s.material[i] = static_cast<int>(i % 3);
+  }
+  return s;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t k = 0;
+  for (auto pos = text.find(what); pos != std::string::npos; pos = text.find(what, pos + what.size())) ++k;
+  return k;
+}
+
+}  // namespace
+
+TEST_CASE("Output: a snapshot reads back identical", "[output]") {
+  const TempDir dir("output");
+  const std::string path = (dir.path / "snap.h5").string();
+  const ParticleSnapshot a = make_snapshot(257, 4200, 0.0123456789);
+  tamp::write_snapshot_h5(path, a);
+  CHECK(fs::exists(path));
+  CHECK_FALSE(fs::exists(path + ".tmp"));
+
+  const ParticleSnapshot b = tamp::read_snapshot_h5(path);
+  CHECK(b.step == a.step);
+  CHECK(b.time == a.time);
+  CHECK(b.size() == a.size());
+  CHECK(b.r == a.r);
+  CHECK(b.z == a.z);
+  CHECK(b.v_r == a.v_r);
+  CHECK(b.v_z == a.v_z);
+  CHECK(b.density == a.density);
+  CHECK(b.s_rr == a.s_rr);
+  CHECK(b.s_zz == a.s_zz);
+  CHECK(b.s_tt == a.s_tt);
+  CHECK(b.s_rz == a.s_rz);
+  CHECK(b.plastic_strain == a.plastic_strain);
+  CHECK(b.internal_energy == a.internal_energy);
+  CHECK(b.mass == a.mass);
+  CHECK(b.material == a.material);
+
+  SECTION("an existing file is replaced") {
+    const ParticleSnapshot c = make_snapshot(3, 1, 2.0);
+    tamp::write_snapshot_h5(path, c);
+    const ParticleSnapshot d = tamp::read_snapshot_h5(path);
+    CHECK(d.size() == 3);
+    CHECK(d.step == 1);
+    CHECK(d.r == c.r);
+  }
+  SECTION("an empty snapshot") {
+    const std::string empty = (dir.path / "empty.h5").string();
+    tamp::write_snapshot_h5(empty, make_snapshot(0, 0, 0.0));
+    CHECK(tamp::read_snapshot_h5(empty).size() == 0);
+  }
+}
+
+TEST_CASE("Output: snapshot errors name the file", "[output]") {
+  const TempDir dir("output");
+  SECTION("missing file") {
+    const std::string path = (dir.path / "nope.h5").string();
+    try {
+      tamp::read_snapshot_h5(path);
+      FAIL("expected an exception");
+    } catch (const std::runtime_error& e) {
+      CHECK_THAT(e.what(), Catch::Contains(path));
+    }
+  }
+  SECTION("not an HDF5 file") {
+    const std::string path = (dir.path / "text.h5").string();
+    std::ofstream(path) << "not hdf5\n";
+    try {
+      tamp::read_snapshot_h5(path);
+      FAIL("expected an exception");
+    } catch (const std::runtime_error& e) {
+      CHECK_THAT(e.what(), Catch::Contains(path));
+    }
+  }
+  SECTION("folder does not exist") {
+    const std::string path = (dir.path / "no" / "such" / "dir.h5").string();
+    try {
+      tamp::write_snapshot_h5(path, make_snapshot(2, 0, 0.0));
+      FAIL("expected an exception");
+    } catch (const std::runtime_error& e) {
+      CHECK_THAT(e.what(), Catch::Contains(path));
+    }
+  }
+  SECTION("inconsistent field sizes") {
+    ParticleSnapshot s = make_snapshot(5, 0, 0.0);
+    s.s_tt.pop_back();
+    const std::string path = (dir.path / "bad.h5").string();
+    CHECK_THROWS_WITH(tamp::write_snapshot_h5(path, s), Catch::Contains("s_tt"));
+    CHECK_FALSE(fs::exists(path));
+  }
+}
+
+TEST_CASE("Output: the XDMF series is well formed", "[output]") {
+  const TempDir dir("output");
+  const fs::path xdmf = dir.path / "series.xdmf";
+  tamp::XdmfSeries series(xdmf.string());
+  const std::size_t n = 17;
+  const double times[] = {0.0, 0.25, 0.5};
+  for (int k = 0; k < 3; ++k) {
+    const std::string name = "snap_" + std::to_string(k) + ".h5";
+    const ParticleSnapshot s = make_snapshot(n, 10L * k, times[k]);
+    tamp::write_snapshot_h5((dir.path / name).string(), s);
+    if (k < 2)
+      series.add(name, s);
+    else
+      series.add((dir.path / name).string(), s);  // absolute: stored relative to the xdmf
+    series.write();
+  }
+  series.add("snap_1.h5", make_snapshot(n, 10, 0.25));  // same file again: replaces
+  series.write();
+  CHECK(series.size() == 3);
+
+  const std::string text = read_text(xdmf);
+  INFO(text);
+  CHECK(text.rfind("<?xml", 0) == 0);
+  CHECK(count(text, "<Xdmf") == 1);
+  CHECK(count(text, "</Xdmf>") == 1);
+  CHECK(count(text, "CollectionType=\"Temporal\"") == 1);
+  CHECK(count(text, "<Grid ") == 4);  // the collection and 3 snapshots
+  CHECK(count(text, "</Grid>") == 4);
+  CHECK(count(text, "<Time ") == 3);
+  CHECK(count(text, "<Time Value=\"0\"/>") == 1);
+  CHECK(count(text, "<Time Value=\"0.25\"/>") == 1);
+  CHECK(count(text, "<Time Value=\"0.5\"/>") == 1);
+  CHECK(count(text, "TopologyType=\"Polyvertex\" NumberOfElements=\"17\"") == 3);
+  CHECK(count(text, "<Attribute ") == count(text, "</Attribute>"));
+  CHECK(count(text, "<DataItem ") == count(text, "</DataItem>"));
+  for (int k = 0; k < 3; ++k) {
+    const std::string f = "snap_" + std::to_string(k) + ".h5";
+    CHECK(count(text, ">" + f + ":/particles/coordinates</DataItem>") == 1);
+    CHECK(count(text, ">" + f + ":/particles/s_zz</DataItem>") == 1);
+    CHECK(count(text, ">" + f + ":/particles/material</DataItem>") == 1);
+  }
+  CHECK(count(text, "Dimensions=\"17 3\"") == 3);
+  CHECK(text.find(dir.path.string()) == std::string::npos);  // no absolute paths
+  CHECK_FALSE(fs::exists(xdmf.string() + ".tmp"));
+
+  // Every dataset named in the XDMF exists in the snapshot it points to.
+  const ParticleSnapshot back = tamp::read_snapshot_h5((dir.path / "snap_2.h5").string());
+  CHECK(back.size() == n);
+  CHECK(back.time == 0.5);
+}
+
+TEST_CASE("Output: CSV has the header and full-precision rows", "[output]") {
+  const TempDir dir("output");
+  const fs::path path = dir.path / "table.csv";
+  const std::vector<std::vector<double>> rows = {{0.0, 1.0 / 3.0, -2.5e-12}, {1e300, 42, 0.1}};
+  tamp::write_csv(path.string(), {"time", "force, N", "u"}, rows);
+  std::ifstream in(path);
+  std::string line;
+  REQUIRE(std::getline(in, line));
+  CHECK(line == "time,\"force, N\",u");
+  for (const auto& row : rows) {
+    REQUIRE(std::getline(in, line));
+    std::stringstream ss(line);
+    std::string cell;
+    std::vector<double> values;
+    while (std::getline(ss, cell, ',')) values.push_back(std::stod(cell));
+    CHECK(values == row);  // exact: written with round-trip precision
+  }
+  CHECK_FALSE(std::getline(in, line));
+
+  CHECK_THROWS_AS(tamp::write_csv(path.string(), {"a", "b"}, {{1.0}}), std::invalid_argument);
+}

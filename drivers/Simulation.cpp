@@ -58,11 +58,56 @@ void Simulation::build_materials() {
   Kokkos::deep_copy(materials_, h);
 }
 
+// Device kernels of the private members below live in free functions: nvcc does not
+// allow extended lambdas in private member functions, nor local types in their captures.
+namespace {
+
+struct BlockGrid { int nr, nz, first, mat; BlockSpec b; };
+
+// Fills block g of a regular grid of spacing dp (one kernel launch).
+void fill_block(const Particles& P, const BlockGrid& g, double rho0, double dp, double r_floor) {
+  auto x = P.x; auto v = P.v; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
+  auto matv = P.material;
+  const int first = g.first, nr = g.nr, mat = g.mat;
+  const double r_min = g.b.r_min, z_min = g.b.z_min;
+  const double vr0 = g.b.velocity_r, vz0 = g.b.velocity_z;
+  Kokkos::parallel_for(
+      "tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, g.nr * g.nz), KOKKOS_LAMBDA(int k) {
+        const int i = first + k;
+        const int ir = k % nr, iz = k / nr;
+        const double r = r_min + (ir + 0.5) * dp;
+        const double z = z_min + (iz + 0.5) * dp;
+        x(i, 0) = r;
+        x(i, 1) = z;
+        v(i, 0) = vr0;
+        v(i, 1) = vz0;
+        rho(i) = rho0;
+        mass(i) = rho0 * 2.0 * pi * r * dp * dp;
+        mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
+        matv(i) = mat;
+      });
+}
+
+// max_i |x_i - x_ref_i|^2 over the first n particles.
+double max_displacement_sq(const ViewN<double, 2>& x, const ViewN<double, 2>& xr, int n) {
+  double dmax = 0;
+  Kokkos::parallel_reduce(
+      "tamp::max_displacement", Kokkos::RangePolicy<ExecSpace>(0, n),
+      KOKKOS_LAMBDA(int i, double& m) {
+        const double dr = x(i, 0) - xr(i, 0), dz = x(i, 1) - xr(i, 1);
+        m = math::max(m, dr * dr + dz * dz);
+      },
+      Kokkos::Max<double>(dmax));
+  return dmax;
+}
+
+}  // namespace
+
 // Particles on a regular grid of spacing dp in each block (centres at half spacings), ring
 // mass m = rho0 * 2 pi r * dp^2. One kernel launch per block.
 void Simulation::build_particles() {
   const double dp = config_.sph.spacing;
-  struct Grid { int nr, nz, first, mat; BlockSpec b; };
+  using Grid = BlockGrid;
   std::vector<Grid> grids;
   int total = 0;
   for (const auto& b : config_.blocks) {
@@ -90,27 +135,7 @@ void Simulation::build_particles() {
   Kokkos::deep_copy(P.flags, 0);
   Kokkos::deep_copy(P.v_prescribed, 0.0);
   const double r_floor = 1e-3 * dp;
-  for (const Grid& g : grids) {
-    auto x = P.x; auto v = P.v; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
-    auto matv = P.material;
-    const double rho0 = materials_host_[g.mat].density;
-    const Grid gg = g;
-    Kokkos::parallel_for(
-        "tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, g.nr * g.nz), KOKKOS_LAMBDA(int k) {
-          const int i = g.first + k;
-          const int ir = k % gg.nr, iz = k / gg.nr;
-          const double r = gg.b.r_min + (ir + 0.5) * dp;
-          const double z = gg.b.z_min + (iz + 0.5) * dp;
-          x(i, 0) = r;
-          x(i, 1) = z;
-          v(i, 0) = gg.b.velocity_r;
-          v(i, 1) = gg.b.velocity_z;
-          rho(i) = rho0;
-          mass(i) = rho0 * 2.0 * pi * r * dp * dp;
-          mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
-          matv(i) = gg.mat;
-        });
-  }
+  for (const Grid& g : grids) fill_block(P, g, materials_host_[g.mat].density, dp, r_floor);
   Kokkos::fence();
 }
 
@@ -119,15 +144,7 @@ void Simulation::refresh_neighbours(bool force) {
   const double cutoff = 2.0 * sph_.h + skin_;
   bool rebuild = force;
   if (!rebuild) {
-    auto x = P.x; auto xr = P.x_ref;
-    double dmax = 0;
-    Kokkos::parallel_reduce(
-        "tamp::max_displacement", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-        KOKKOS_LAMBDA(int i, double& m) {
-          const double dr = x(i, 0) - xr(i, 0), dz = x(i, 1) - xr(i, 1);
-          m = math::max(m, dr * dr + dz * dz);
-        },
-        Kokkos::Max<double>(dmax));
+    const double dmax = max_displacement_sq(P.x, P.x_ref, P.n_real);
     rebuild = std::sqrt(dmax) > 0.5 * skin_;
   }
   if (rebuild) {

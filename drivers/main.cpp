@@ -20,7 +20,19 @@
 #include "drivers/Simulation.hpp"
 
 namespace fs = std::filesystem;
-using namespace tamp;
+// Using-declarations, not `using namespace tamp`: that would make tamp::log visible at
+// global scope, where it clashes with ::log in the CUDA runtime's math headers (nvcc).
+using tamp::Config;
+using tamp::DeckError;
+using tamp::Energies;
+using tamp::ParticleSnapshot;
+using tamp::RunFailure;
+using tamp::Simulation;
+using tamp::XdmfSeries;
+using tamp::load_deck;
+using tamp::to_toml;
+using tamp::write_csv;
+using tamp::write_snapshot_h5;
 
 namespace {
 
@@ -67,7 +79,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   Config cfg = load_deck(deck);  // validated before any work
   if (fs::exists(out)) {
     if (!force) {
-      log::error("result folder '" + out + "' exists; pass --force to overwrite it");
+      tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
       return 2;
     }
     fs::remove_all(out);
@@ -127,16 +139,16 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   record_energy();
   write_csv(out + "/energy.csv", {"time_s", "kinetic_J", "internal_J", "potential_J", "total_J"}, energy_rows);
   if (!failure.empty()) {
-    log::error("run failed: " + failure + "; last good snapshot in " + out);
+    tamp::log::error("run failed: " + failure + "; last good snapshot in " + out);
     return 1;
   }
   write_snapshot();
   std::ostringstream done;
   done << "finished: " << sim.steps() << " steps, t = " << sim.time() << " s, wall " << fmt("%.2f", wall)
        << " s, " << fmt("%.3g", sim.particle_count() * double(sim.steps()) / wall) << " particle-steps/s";
-  log::info(done.str());
+  tamp::log::info(done.str());
   if (g_interrupted) {
-    log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; state written to " + out);
+    tamp::log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; state written to " + out);
     return 1;
   }
   return 0;
@@ -169,13 +181,13 @@ int main(int argc, char** argv) {
     if (*run) rc = cmd_run(deck, out, force);
     if (*check) rc = cmd_check(deck);
   } catch (const DeckError& e) {
-    log::error(e.what());
+    tamp::log::error(e.what());
     rc = 2;
   } catch (const std::invalid_argument& e) {
-    log::error(std::string("bad input: ") + e.what());
+    tamp::log::error(std::string("bad input: ") + e.what());
     rc = 2;
   } catch (const std::exception& e) {
-    log::error(e.what());
+    tamp::log::error(e.what());
     rc = 1;
   }
   Kokkos::finalize();

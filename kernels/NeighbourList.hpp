@@ -151,6 +151,7 @@ inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_q
   const double rc2 = cutoff_m * cutoff_m;
   auto count = count_;
   auto offs = offsets;
+  const int nq = n_query_in;  // not the member: a device lambda must not capture `this`
   const CellGrid grid{x, cell_of, cell_start, sorted, nr, nz, rc2};
   Kokkos::parallel_for(
       "tamp::nl::count", policy(0, n_query), KOKKOS_LAMBDA(int i) {
@@ -161,7 +162,7 @@ inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_q
   Kokkos::parallel_scan(
       "tamp::nl::offsets", policy(0, n_query + 1),
       KOKKOS_LAMBDA(int i, int& partial, bool final) {
-        const int cnt = (i < n_query) ? count(i) : 0;
+        const int cnt = (i < nq) ? count(i) : 0;
         if (final) offs(i) = partial;
         partial += cnt;
       });

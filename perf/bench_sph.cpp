@@ -14,7 +14,6 @@
 #include <string>
 #include <vector>
 
-#include "core/Log.hpp"
 #include "drivers/Simulation.hpp"
 
 using namespace tamp;

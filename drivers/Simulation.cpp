@@ -27,7 +27,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   sph_.art_n = config_.sph.artificial_stress_n;
   sph_.inv_w_dp = 1.0 / Wendland2D(sph_.h).value(dp);
   sph_.r_min = config_.sph.axis_radius_factor * sph_.h;
-  sph_.gravity = config_.gravity;
+  sph_.gravity = gravity_at(0.0);
   sph_.damping = config_.damping;
   sph_.kernel_correction = config_.sph.kernel_correction ? 1 : 0;
   skin_ = config_.sph.neighbour_skin * sph_.h;
@@ -148,7 +148,7 @@ void Simulation::refresh_neighbours(bool force) {
     rebuild = std::sqrt(dmax) > 0.5 * skin_;
   }
   if (rebuild) {
-    ghosts_.generate(P, cutoff, config_.gravity);
+    ghosts_.generate(P, cutoff, sph_.gravity);
     neighbours_.build(P.x, P.n_total, P.n_real, cutoff);
     Kokkos::deep_copy(Kokkos::subview(P.x_ref, std::make_pair(0, P.n_real), Kokkos::ALL),
                       Kokkos::subview(P.x, std::make_pair(0, P.n_real), Kokkos::ALL));
@@ -174,6 +174,11 @@ double Simulation::stable_dt() const {
   return config_.run.cfl * dt;
 }
 
+double Simulation::gravity_at(double t) const {
+  const double ramp = config_.gravity_ramp;
+  return ramp > 0 && t < ramp ? config_.gravity * t / ramp : config_.gravity;
+}
+
 void Simulation::step(double dt_override) {
   Particles& P = particles_;
   const double dt = dt_override > 0 ? dt_override : stable_dt();
@@ -185,6 +190,7 @@ void Simulation::step(double dt_override) {
     throw RunFailure(msg.str());
   }
   dt_ = dt;
+  sph_.gravity = gravity_at(time_ + dt);  // the accelerations below are those at t + dt
   using policy = Kokkos::RangePolicy<ExecSpace>;
   const policy reals(0, P.n_real);
 
@@ -202,7 +208,7 @@ void Simulation::step(double dt_override) {
                             P.sigma, P.art_stress, P.material, neighbours_.offsets,
                             neighbours_.neighbours, materials_, sph_, dt};
   Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);
-  ghosts_.sync_stress(P, config_.gravity);
+  ghosts_.sync_stress(P, sph_.gravity);
 
   const int every = config_.sph.regularise_every;
   if (every > 0 && (steps_ + 1) % every == 0) {
@@ -213,7 +219,7 @@ void Simulation::step(double dt_override) {
     Kokkos::parallel_for("tamp::sph::regularise_copy", reals, KOKKOS_LAMBDA(int i) {
       for (int c = 0; c < 4; ++c) s(i, c) = t(i, c);
     });
-    ghosts_.sync_stress(P, config_.gravity);
+    ghosts_.sync_stress(P, sph_.gravity);
   }
 
   compute_acceleration();

@@ -39,6 +39,7 @@ class Simulation {
   long steps() const { return steps_; }
   double last_dt() const { return dt_; }
   double stable_dt() const;
+  double gravity_at(double t) const;  // m/s2, with the deck's linear ramp
   double smoothing_length() const { return sph_.h; }
   double spacing() const { return config_.sph.spacing; }
   int particle_count() const { return particles_.n_real; }

@@ -128,6 +128,7 @@ void require_same(const Config& a, const Config& b) {
   CHECK(a.sph.axis_radius_factor == b.sph.axis_radius_factor);
   CHECK(a.gravity == b.gravity);
   CHECK(a.damping == b.damping);
+  CHECK(a.gravity_ramp == b.gravity_ramp);
   REQUIRE(a.materials.size() == b.materials.size());
   for (std::size_t i = 0; i < a.materials.size(); ++i) {
     const auto& x = a.materials[i];

@@ -30,6 +30,8 @@ struct Particles {
   ViewN<double, 4> sigma;         // Cauchy stress rr, zz, tt, rz (tension positive), Pa
   ViewN<double, 4> sigma_tmp;     // scratch for stress regularisation
   ViewN<double, 3> art_stress;    // Gray-Monaghan-Swift R (rr, zz, rz), (Pa) / (kg/m3)^2
+  ViewN<double, 3> pair_stress;   // mp sigma / rho^2 (rr, zz, rz): a particle's share of the
+                                  // symmetric pair term, precomputed once per step
   View1<double> plastic_strain;   // accumulated equivalent plastic shear strain, -
   View1<double> internal_energy;  // specific internal energy (strain + dissipated), J/kg
   View1<double> du_visc;          // rate of viscous heating, W/kg
@@ -52,6 +54,7 @@ inline void Particles::reserve(int new_capacity) {
   grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref");
   grow(mass, "mass"); grow(planar_mass, "planar_mass"); grow(rho, "rho");
   grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
+  grow(pair_stress, "pair_stress");
   grow(plastic_strain, "plastic_strain"); grow(internal_energy, "internal_energy");
   grow(du_visc, "du_visc"); grow(material, "material"); grow(flags, "flags");
   grow(ghost_source, "ghost_source");

@@ -46,7 +46,24 @@ Simulation::Simulation(const Config& config) : config_(config) {
   build_materials();
   build_particles();
   refresh_neighbours(true);
+  ensure_pair_storage();
+  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
+                       PairKernelFactors{particles_.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+  update_pair_stress();
   compute_acceleration();
+}
+
+void Simulation::ensure_pair_storage() {
+  if (pair_f_.extent(0) < neighbours_.neighbours.extent(0))
+    pair_f_ = View1<double>("tamp::pair_f", neighbours_.neighbours.extent(0));
+}
+
+// pair_stress of the real particles from their stress, then every ghost's stress.
+void Simulation::update_pair_stress() {
+  Particles& P = particles_;
+  Kokkos::parallel_for("tamp::sph::pair_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       PairStress{P.planar_mass, P.rho, P.sigma, P.pair_stress});
+  ghosts_.sync_stress(P, sph_.gravity);
 }
 
 void Simulation::build_materials() {
@@ -160,8 +177,8 @@ void Simulation::refresh_neighbours(bool force) {
 
 void Simulation::compute_acceleration() {
   Particles& P = particles_;
-  Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.art_stress,
-                 P.material, neighbours_.offsets, neighbours_.neighbours, materials_, sph_};
+  Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
+                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, materials_, sph_};
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
 }
 
@@ -204,11 +221,12 @@ void Simulation::step(double dt_override) {
 
   refresh_neighbours(false);
 
-  StrainRateAndStress rates{P.x, P.v, P.mass, P.rho, P.plastic_strain, P.internal_energy,
+  ensure_pair_storage();
+  StrainRateAndStress rates{P.x, P.v, pair_f_, P.mass, P.rho, P.plastic_strain, P.internal_energy,
                             P.sigma, P.art_stress, P.material, neighbours_.offsets,
                             neighbours_.neighbours, materials_, sph_, dt};
   Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);
-  ghosts_.sync_stress(P, sph_.gravity);
+  update_pair_stress();
 
   const int every = config_.sph.regularise_every;
   if (every > 0 && (steps_ + 1) % every == 0) {
@@ -219,7 +237,7 @@ void Simulation::step(double dt_override) {
     Kokkos::parallel_for("tamp::sph::regularise_copy", reals, KOKKOS_LAMBDA(int i) {
       for (int c = 0; c < 4; ++c) s(i, c) = t(i, c);
     });
-    ghosts_.sync_stress(P, sph_.gravity);
+    update_pair_stress();
   }
 
   compute_acceleration();

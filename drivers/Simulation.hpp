@@ -65,6 +65,8 @@ class Simulation {
   void build_particles();
   void refresh_neighbours(bool force);
   void compute_acceleration();
+  void ensure_pair_storage();
+  void update_pair_stress();
 
   Config config_;
   SphParams sph_;
@@ -73,6 +75,7 @@ class Simulation {
   Particles particles_;
   MirrorGhosts ghosts_;
   NeighbourList neighbours_;
+  View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
   double skin_ = 0;
   double time_ = 0, dt_ = 0;
   long steps_ = 0, list_builds_ = 0;

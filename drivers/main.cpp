@@ -91,21 +91,29 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   print_plan(cfg, sim, std::cerr);
   XdmfSeries series(out + "/particles.xdmf");
   int n_snap = 0;
+  long last_snapshot_step = -1;
+  std::vector<std::vector<double>> energy_rows;
+  auto write_energy = [&]() {
+    write_csv(out + "/energy.csv", {"time_s", "kinetic_J", "internal_J", "potential_J", "total_J"}, energy_rows);
+  };
+  // A snapshot (and the energy table so far), unless this step already has one.
   auto write_snapshot = [&]() {
+    if (sim.steps() == last_snapshot_step) return;
+    last_snapshot_step = sim.steps();
     char name[64];
     std::snprintf(name, sizeof name, "snapshot_%05d.h5", n_snap++);
     ParticleSnapshot s = sim.snapshot();
     write_snapshot_h5(out + "/" + name, s);
     series.add(name, s);
     series.write();
+    write_energy();
   };
-  std::vector<std::vector<double>> energy_rows;
   auto record_energy = [&]() {
     Energies e = sim.energies();
     energy_rows.push_back({sim.time(), e.kinetic, e.internal, e.potential, e.total()});
   };
-  write_snapshot();
   record_energy();
+  write_snapshot();
 
   std::signal(SIGINT, on_sigint);
   const auto t0 = std::chrono::steady_clock::now();
@@ -137,7 +145,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   record_energy();
-  write_csv(out + "/energy.csv", {"time_s", "kinetic_J", "internal_J", "potential_J", "total_J"}, energy_rows);
+  write_energy();
   if (!failure.empty()) {
     tamp::log::error("run failed: " + failure + "; last good snapshot in " + out);
     return 1;

@@ -116,7 +116,7 @@ inline void MirrorGhosts::sync_kinematics(Particles& p) const {
 
 inline void MirrorGhosts::sync_stress(Particles& p, double gravity) const {
   auto sigma = p.sigma; auto R = p.art_stress; auto rho = p.rho; auto src = p.ghost_source;
-  auto x = p.x;
+  auto x = p.x; auto mp = p.planar_mass; auto ps = p.pair_stress;
   for (const Range& rg : ranges_) {
     const double grav = planes.plane[rg.plane].axis == 1 ? gravity : 0.0;
     Kokkos::parallel_for(
@@ -131,6 +131,10 @@ inline void MirrorGhosts::sync_stress(Particles& p, double gravity) const {
           R(g, 1) = R(s, 1);
           R(g, 2) = -R(s, 2);
           rho(g) = rho(s);
+          const double k = mp(g) / (rho(g) * rho(g));  // PairStress of the ghost
+          ps(g, 0) = k * sigma(g, 0);
+          ps(g, 1) = k * sigma(g, 1);
+          ps(g, 2) = k * sigma(g, 3);
         });
   }
 }

@@ -34,24 +34,11 @@ struct SphParams {
   int kernel_correction = 1;  // first-order gradient correction in the velocity gradient
 };
 
-// In-plane principal decomposition of a symmetric 2x2 tensor (a_rr, a_zz, a_rz):
-// values l1 >= l2 and the unit eigenvector (c, s) of l1.
-KOKKOS_INLINE_FUNCTION void principal_2x2(double arr, double azz, double arz, double& l1,
-                                          double& l2, double& c, double& s) {
-  const double mean = 0.5 * (arr + azz);
-  const double half = 0.5 * (arr - azz);
-  const double rad = math::sqrt(half * half + arz * arz);
-  l1 = mean + rad;
-  l2 = mean - rad;
-  const double theta = 0.5 * math::atan2(2.0 * arz, arr - azz);
-  c = math::cos(theta);
-  s = math::sin(theta);
-}
-
 // Loop A: velocity gradient (with the hoop rate), continuity, stress update through the
 // material model, internal energy, artificial stress R. Writes only particle a.
 struct StrainRateAndStress {
   ViewN<double, 2> x, v;
+  View1<double> pair_f;  // out: (dW/dr)/r of every listed pair, 0 beyond the support
   View1<double> mass, rho, plastic_strain, internal_energy;
   ViewN<double, 4> sigma;
   ViewN<double, 3> art_stress;
@@ -73,8 +60,9 @@ struct StrainRateAndStress {
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
       const double r = math::sqrt(dr * dr + dz * dz);
-      if (r >= 2.0 * p.h || r <= 0.0) continue;
-      const double f = W.derivative(r) / r;  // grad_a W = f * (x_a - x_b)
+      const double f = (r >= 2.0 * p.h || r <= 0.0) ? 0.0 : W.derivative(r) / r;
+      pair_f(k) = f;  // grad_a W = f * (x_a - x_b); reused by the acceleration loop
+      if (f == 0.0) continue;
       const double gr = f * dr, gz = f * dz;
       const double Vb = mass(b) * inv_eta_a;
       const double dvr = v(b, 0) - vra, dvz = v(b, 1) - vza;
@@ -117,14 +105,23 @@ struct StrainRateAndStress {
     rho(a) = rho_new;
 
     // Artificial stress (Gray, Monaghan & Swift 2001): R' = -eps sigma' / rho^2 for each
-    // tensile in-plane principal stress sigma' > 0, rotated back to (r, z).
-    double l1, l2, c, sn;
-    principal_2x2(s[0], s[1], s[3], l1, l2, c, sn);
-    const double k = -p.art_eps / (rho_new * rho_new);
-    const double R1 = l1 > 0 ? k * l1 : 0.0, R2 = l2 > 0 ? k * l2 : 0.0;
-    art_stress(a, 0) = R1 * c * c + R2 * sn * sn;
-    art_stress(a, 1) = R1 * sn * sn + R2 * c * c;
-    art_stress(a, 2) = (R1 - R2) * c * sn;
+    // tensile in-plane principal stress sigma' > 0, rotated back to (r, z) with the double
+    // angle (cos 2t, sin 2t) of the principal direction (no trigonometric calls).
+    const double mean = 0.5 * (s[0] + s[1]), half = 0.5 * (s[0] - s[1]);
+    const double rad = math::sqrt(half * half + s[3] * s[3]);
+    const double l1 = mean + rad, l2 = mean - rad;
+    if (l1 <= 0.0 || p.art_eps == 0.0) {
+      art_stress(a, 0) = 0.0;
+      art_stress(a, 1) = 0.0;
+      art_stress(a, 2) = 0.0;
+    } else {
+      const double k = -p.art_eps / (rho_new * rho_new);
+      const double R1 = k * l1, R2 = l2 > 0 ? k * l2 : 0.0;
+      const double c2 = rad > 0 ? half / rad : 1.0, s2 = rad > 0 ? s[3] / rad : 0.0;
+      art_stress(a, 0) = 0.5 * (R1 + R2) + 0.5 * (R1 - R2) * c2;
+      art_stress(a, 1) = 0.5 * (R1 + R2) - 0.5 * (R1 - R2) * c2;
+      art_stress(a, 2) = 0.5 * (R1 - R2) * s2;
+    }
   }
 };
 
@@ -137,14 +134,14 @@ struct Acceleration {
   ViewN<double, 2> x, v, a, a_ext;
   View1<double> mass, rho, du_visc;
   ViewN<double, 4> sigma;
-  ViewN<double, 3> art_stress;
+  ViewN<double, 3> pair_stress, art_stress;
   View1<int> material;
   View1<int> offsets, neighbours;
+  View1<double> pair_f;  // from StrainRateAndStress, same positions
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
 
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
-    const Wendland2D W(p.h);
     const double xa = x(i, 0), za = x(i, 1);
     const double vra = v(i, 0), vza = v(i, 1);
     const double rhoa = rho(i);
@@ -152,46 +149,45 @@ struct Acceleration {
     const double ia2 = 1.0 / (2.0 * pi * r_reg * rhoa * rhoa);
     const double Sa_rr = sigma(i, 0) * ia2, Sa_zz = sigma(i, 1) * ia2, Sa_rz = sigma(i, 3) * ia2;
     const double Ra_rr = art_stress(i, 0), Ra_zz = art_stress(i, 1), Ra_rz = art_stress(i, 2);
+    const bool Ra_on = p.art_eps > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = materials(material(i)).wave_speed();
     double ar = 0, az = 0, heat = 0;
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
+      const double f = pair_f(k);
+      if (f == 0.0) continue;
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
-      const double r2 = dr * dr + dz * dz;
-      const double r = math::sqrt(r2);
-      if (r >= 2.0 * p.h || r <= 0.0) continue;
-      const double f = W.derivative(r) / r;
       const double gr = f * dr, gz = f * dz;
-      const double rhob = rho(b);
-      // Mirror ghosts across the axis have r < 0 and a negative ring mass (Mirror.hpp):
-      // m_b S_b keeps the source's sign; the viscous and artificial-stress pair weights
-      // use |m_b| / (2 pi mean r).
-      const double rb = math::max(math::abs(x(b, 0)), p.r_min);
-      const double ib2 = 1.0 / (2.0 * pi * (x(b, 0) < 0 ? -rb : rb) * rhob * rhob);
-      double Srr = Sa_rr + sigma(b, 0) * ib2;
-      double Szz = Sa_zz + sigma(b, 1) * ib2;
-      double Srz = Sa_rz + sigma(b, 3) * ib2;
-      const double dvr = vra - v(b, 0), dvz = vza - v(b, 1);
       const double mb = mass(b);
-      if (p.art_eps > 0) {
-        const double fab = math::pow(W.value(r) * p.inv_w_dp, p.art_n);
-        const double w = fab / (pi * (r_reg + rb)) * (mb < 0 ? -1.0 : 1.0);  // |m_b| R / (2 pi r)
-        const double Xrr = w * (Ra_rr + art_stress(b, 0));
-        const double Xzz = w * (Ra_zz + art_stress(b, 1));
-        const double Xrz = w * (Ra_rz + art_stress(b, 2));
-        Srr += Xrr; Szz += Xzz; Srz += Xrz;
+      // m_b (S_a + S_b) with m_b S_b = mp_b sigma_b / rho_b^2 (sign-free for axis ghosts,
+      // whose ring mass m_b is negative: Mirror.hpp)
+      double Trr = mb * Sa_rr + pair_stress(b, 0);
+      double Tzz = mb * Sa_zz + pair_stress(b, 1);
+      double Trz = mb * Sa_rz + pair_stress(b, 2);
+      const double mb_abs = mb < 0 ? -mb : mb;
+      const double rb = math::max(math::abs(x(b, 0)), p.r_min);
+      const double ring = mb_abs / (pi * (r_reg + rb));  // |m_b| / (2 pi mean r) = planar mass
+      if (Ra_on || (p.art_eps > 0 && (art_stress(b, 0) != 0 || art_stress(b, 1) != 0 || art_stress(b, 2) != 0))) {
+        const double r = math::sqrt(dr * dr + dz * dz);
+        const double fab = math::pow(Wendland2D(p.h).value(r) * p.inv_w_dp, p.art_n);
+        Trr += ring * fab * (Ra_rr + art_stress(b, 0));
+        Tzz += ring * fab * (Ra_zz + art_stress(b, 1));
+        Trz += ring * fab * (Ra_rz + art_stress(b, 2));
       }
+      const double dvr = vra - v(b, 0), dvz = vza - v(b, 1);
       const double vdotx = dvr * dr + dvz * dz;
-      double Pi = 0;
       if (vdotx < 0) {
+        const double r2 = dr * dr + dz * dz;
         const double mu = p.h * vdotx / (r2 + 0.01 * p.h * p.h);
+        const double rhob = rho(b);
         const double cb = materials(material(b)).wave_speed();
-        Pi = (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob)) /
-             (pi * (r_reg + rb)) * (mb < 0 ? -1.0 : 1.0);  // |m_b| Pi / (2 pi mean r)
+        const double Pi = ring * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
+        Trr -= Pi;
+        Tzz -= Pi;
+        heat += 0.5 * Pi * (dvr * gr + dvz * gz);
       }
-      ar += mb * ((Srr - Pi) * gr + Srz * gz);
-      az += mb * (Srz * gr + (Szz - Pi) * gz);
-      heat += 0.5 * mb * Pi * (dvr * gr + dvz * gz);
+      ar += Trr * gr + Trz * gz;
+      az += Trz * gr + Tzz * gz;
     }
     ar -= sigma(i, 2) / (rhoa * r_reg);
     az -= p.gravity;
@@ -200,6 +196,38 @@ struct Acceleration {
     a(i, 0) = ar;
     a(i, 1) = az;
     du_visc(i) = heat;
+  }
+};
+
+// (dW/dr)/r for every listed pair at the current positions (as StrainRateAndStress
+// stores them); used when the acceleration is needed before a strain-rate pass.
+struct PairKernelFactors {
+  ViewN<double, 2> x;
+  View1<int> offsets, neighbours;
+  View1<double> pair_f;
+  double h;
+  KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
+    const Wendland2D W(h);
+    for (int k = offsets(a); k < offsets(a + 1); ++k) {
+      const int b = neighbours(k);
+      const double dr = x(a, 0) - x(b, 0), dz = x(a, 1) - x(b, 1);
+      const double r = math::sqrt(dr * dr + dz * dz);
+      pair_f(k) = (r >= 2.0 * h || r <= 0.0) ? 0.0 : W.derivative(r) / r;
+    }
+  }
+};
+
+// A particle's share of the pair term: mp sigma / rho^2 (rr, zz, rz). Run on the real
+// particles after every stress change; MirrorGhosts::sync_stress fills the ghosts.
+struct PairStress {
+  View1<double> planar_mass, rho;
+  ViewN<double, 4> sigma;
+  ViewN<double, 3> pair_stress;
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    const double k = planar_mass(i) / (rho(i) * rho(i));
+    pair_stress(i, 0) = k * sigma(i, 0);
+    pair_stress(i, 1) = k * sigma(i, 1);
+    pair_stress(i, 2) = k * sigma(i, 3);
   }
 };
 

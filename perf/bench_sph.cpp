@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
   }
   Kokkos::initialize(argc, argv);
   {
-    std::printf("# exec space %s, concurrency %d\n", ExecSpace::name(), ExecSpace::concurrency());
+    std::printf("# exec space %s, concurrency %d\n", ExecSpace::name(), ExecSpace().concurrency());
     std::printf("# particles  steps  median_wall_s  particle_steps_per_s  list_builds  neighbours_per_particle\n");
     for (int n : sizes) {
       std::vector<double> walls;

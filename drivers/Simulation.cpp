@@ -31,6 +31,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   sph_.damping = config_.damping;
   sph_.kernel_correction = config_.sph.kernel_correction ? 1 : 0;
   skin_ = config_.sph.neighbour_skin * sph_.h;
+  fab_table_ = artificial_stress_table(sph_);
 
   // Mirror planes: the axis first, then the walls the deck asks for.
   MirrorPlanes& planes = ghosts_.planes;
@@ -178,7 +179,7 @@ void Simulation::refresh_neighbours(bool force) {
 void Simulation::compute_acceleration() {
   Particles& P = particles_;
   Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
-                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, materials_, sph_};
+                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, materials_, sph_, fab_table_};
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
 }
 

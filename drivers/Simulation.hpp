@@ -75,6 +75,7 @@ class Simulation {
   Particles particles_;
   MirrorGhosts ghosts_;
   NeighbourList neighbours_;
+  Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
   View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
   double skin_ = 0;
   double time_ = 0, dt_ = 0;

@@ -1,6 +1,7 @@
 // Throughput of the full SPH step (neighbour search with Verlet skin, strain rate and
 // stress update with Mohr-Coulomb/Tresca, accelerations, integration) on an axisymmetric
-// block of the lab clay under gravity, fixed base and roller side.
+// block of the lab clay (0.5 m radius and height) under gravity, fixed base and roller
+// side; the particle count sets the spacing.
 //   bench_sph [--sizes 10000,40000,160000] [--steps 200] [--repeats 5]
 // Prints one line per size: particles, steps, median wall s, particle-steps/s.
 // Threads: from OMP_NUM_THREADS (perf/run-bench runs 1 and 2).
@@ -18,10 +19,12 @@
 
 using namespace tamp;
 
+// The same physical block (0.5 m x 0.5 m) at every size, so that the stress state, and
+// with it the work per particle (plastic returns, artificial stress), is the same.
 static Config block_config(int n_target) {
-  const double dp = 0.005;
+  const double L = 0.5;
   const int side = static_cast<int>(std::lround(std::sqrt(double(n_target))));
-  const double L = side * dp;
+  const double dp = L / side;
   Config c;
   c.sph.spacing = dp;
   c.gravity = 9.81;

@@ -86,13 +86,20 @@ struct BlockGrid { int nr, nz, first, mat; BlockSpec b; };
 void fill_block(const Particles& P, const BlockGrid& g, double rho0, double dp, double r_floor) {
   auto x = P.x; auto v = P.v; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
   auto matv = P.material;
-  const int first = g.first, nr = g.nr, mat = g.mat;
+  const int first = g.first, nr = g.nr, nz = g.nz, mat = g.mat;
   const double r_min = g.b.r_min, z_min = g.b.z_min;
   const double vr0 = g.b.velocity_r, vz0 = g.b.velocity_z;
   Kokkos::parallel_for(
       "tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, g.nr * g.nz), KOKKOS_LAMBDA(int k) {
         const int i = first + k;
-        const int ir = k % nr, iz = k / nr;
+        // Strip order: vertical strips of `strip` columns, each filled row by row, so that
+        // the neighbours of a particle are at most ~3 strip widths away in memory (the
+        // row-major order put them a whole row apart: 30-40 % slower at 160k particles).
+        constexpr int strip = 32;
+        const int s = k / (strip * nz);
+        const int width = (s + 1) * strip <= nr ? strip : nr - s * strip;
+        const int kk = k - s * strip * nz;
+        const int ir = s * strip + kk % width, iz = kk / width;
         const double r = r_min + (ir + 0.5) * dp;
         const double z = z_min + (iz + 0.5) * dp;
         x(i, 0) = r;
@@ -259,6 +266,43 @@ void Simulation::advance_to(double end_time, const std::function<bool()>& on_ste
 }
 
 Energies Simulation::energies() const { return energy_sums(particles_, config_.gravity); }
+
+void Simulation::set_geostatic_stress(double k0) {
+  constexpr int max_layers = 16;
+  struct Layers { double z_bot[max_layers], z_top[max_layers], gamma[max_layers]; int n = 0; } layers;
+  for (const auto& b : config_.blocks) {
+    if (layers.n == max_layers) throw std::invalid_argument("set_geostatic_stress: more than 16 blocks");
+    int mat = 0;
+    for (size_t k = 0; k < config_.materials.size(); ++k)
+      if (config_.materials[k].name == b.material) mat = static_cast<int>(k);
+    layers.z_bot[layers.n] = b.z_min;
+    layers.z_top[layers.n] = b.z_max;
+    layers.gamma[layers.n] = materials_host_[mat].density * config_.gravity;
+    ++layers.n;
+  }
+  Particles& P = particles_;
+  auto x = P.x; auto sigma = P.sigma; auto material = P.material;
+  auto mats = materials_;
+  Kokkos::parallel_for("tamp::geostatic_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       KOKKOS_LAMBDA(int i) {
+                         const double z = x(i, 1);
+                         double sv = 0;
+                         for (int k = 0; k < layers.n; ++k) {
+                           const double lo = math::max(z, layers.z_bot[k]);
+                           if (layers.z_top[k] > lo) sv -= layers.gamma[k] * (layers.z_top[k] - lo);
+                         }
+                         const MaterialParams& m = mats(material(i));
+                         const double K = m.bulk_modulus, G = m.shear_modulus;
+                         const double nu = (3 * K - 2 * G) / (2 * (3 * K + G));
+                         const double k = k0 >= 0 ? k0 : nu / (1 - nu);
+                         sigma(i, 0) = k * sv;
+                         sigma(i, 1) = sv;
+                         sigma(i, 2) = k * sv;
+                         sigma(i, 3) = 0;
+                       });
+  update_pair_stress();
+  compute_acceleration();
+}
 
 void Simulation::prescribe_velocity(const Box& box, double v_r, double v_z) {
   Particles& P = particles_;

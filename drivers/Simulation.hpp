@@ -53,6 +53,12 @@ class Simulation {
   Energies energies() const;
   ParticleSnapshot snapshot() const;
 
+  // Initial geostatic stress for horizontally layered blocks: sigma_zz = -(weight of the
+  // blocks above the particle per unit area) with the deck's gravity, sigma_rr = sigma_tt
+  // = k0 sigma_zz, where k0 < 0 means nu / (1 - nu) of each particle's material. The
+  // state still needs a short dynamic relaxation (SPH is not in exact discrete equilibrium).
+  void set_geostatic_stress(double k0 = -1.0);
+
   // Particles inside `box` take the velocity (v_r, v_z) from now on (m/s).
   void prescribe_velocity(const Box& box, double v_r, double v_z);
   // A surface traction (t_r, t_z) in Pa on the particles in `box`, which form a boundary

@@ -1,7 +1,8 @@
 // Throughput of the full SPH step (neighbour search with Verlet skin, strain rate and
 // stress update with Mohr-Coulomb/Tresca, accelerations, integration) on an axisymmetric
 // block of the lab clay (0.5 m radius and height) under gravity, fixed base and roller
-// side; the particle count sets the spacing.
+// side, starting from the K0 geostatic stress (a soil at rest: the work per particle and
+// step does not depend on the spacing); the particle count sets the spacing.
 //   bench_sph [--sizes 10000,40000,160000] [--steps 200] [--repeats 5]
 // Prints one line per size: particles, steps, median wall s, particle-steps/s.
 // Threads: from OMP_NUM_THREADS (perf/run-bench runs 1 and 2).
@@ -73,6 +74,7 @@ int main(int argc, char** argv) {
       double npp = 0;
       for (int r = 0; r < repeats; ++r) {
         Simulation sim(block_config(n));
+        sim.set_geostatic_stress();  // start at rest: the same steady work at every size
         for (int k = 0; k < 10; ++k) sim.step();  // warm-up (first touch, list growth)
         Kokkos::fence();
         const long b0 = sim.neighbour_list_builds();

@@ -35,6 +35,7 @@ struct Particles {
   View1<double> plastic_strain;   // accumulated equivalent plastic shear strain, -
   View1<double> internal_energy;  // specific internal energy (strain + dissipated), J/kg
   View1<double> du_visc;          // rate of viscous heating, W/kg
+  View1<double> hoop_factor;      // chi: the hoop terms use chi / r (kernels/SphSolid.hpp)
   View1<int> material;            // index into the material table
   View1<int> flags;               // ParticleFlag bits
   View1<int> ghost_source;        // ghosts: the particle this one mirrors
@@ -56,7 +57,7 @@ inline void Particles::reserve(int new_capacity) {
   grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
   grow(pair_stress, "pair_stress");
   grow(plastic_strain, "plastic_strain"); grow(internal_energy, "internal_energy");
-  grow(du_visc, "du_visc"); grow(material, "material"); grow(flags, "flags");
+  grow(du_visc, "du_visc"); grow(hoop_factor, "hoop_factor"); grow(material, "material"); grow(flags, "flags");
   grow(ghost_source, "ghost_source");
   capacity = new_capacity;
 }

@@ -157,6 +157,7 @@ void Simulation::build_particles() {
   Kokkos::deep_copy(P.plastic_strain, 0.0);
   Kokkos::deep_copy(P.internal_energy, 0.0);
   Kokkos::deep_copy(P.du_visc, 0.0);
+  Kokkos::deep_copy(P.hoop_factor, 1.0);
   Kokkos::deep_copy(P.flags, 0);
   Kokkos::deep_copy(P.v_prescribed, 0.0);
   const double r_floor = 1e-3 * dp;
@@ -186,7 +187,7 @@ void Simulation::refresh_neighbours(bool force) {
 void Simulation::compute_acceleration() {
   Particles& P = particles_;
   Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
-                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, materials_, sph_, fab_table_};
+                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, P.hoop_factor, materials_, sph_, fab_table_};
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
 }
 
@@ -230,7 +231,7 @@ void Simulation::step(double dt_override) {
   refresh_neighbours(false);
 
   ensure_pair_storage();
-  StrainRateAndStress rates{P.x, P.v, pair_f_, P.mass, P.rho, P.plastic_strain, P.internal_energy,
+  StrainRateAndStress rates{P.x, P.v, P.hoop_factor, pair_f_, P.mass, P.rho, P.plastic_strain, P.internal_energy,
                             P.sigma, P.art_stress, P.material, neighbours_.offsets,
                             neighbours_.neighbours, materials_, sph_, dt};
   Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);

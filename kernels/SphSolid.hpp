@@ -7,8 +7,9 @@
 // symmetric in ring masses, so the discrete equations conserve momentum in z and total
 // energy exactly (semi-discretely) when the strain rate uses the conjugate weights m_b/eta_a:
 //   grad v_a   = sum_b (m_b / eta_a) (v_b - v_a) (x) grad_a W_ab
-//   d_tt       = v_r / r,   drho/dt = -rho (dv_r/dr + dv_z/dz + v_r/r)
-//   dv_a/dt    = sum_b m_b (S_a + S_b - Pi_ab I) . grad_a W_ab - sigma_tt,a / (rho_a r_a) e_r
+//   d_tt       = chi_a v_r / r,   drho/dt = -rho (dv_r/dr + dv_z/dz + d_tt)
+//   dv_a/dt    = sum_b m_b (S_a + S_b - Pi_ab I) . grad_a W_ab - chi_a sigma_tt,a / (rho_a r_a) e_r
+// with chi_a the discrete radial moment (~1; see StrainRateAndStress)
 //   S_a        = sigma_a / (2 pi r_a rho_a^2)
 // with 1/r regularised as 1/max(r, c h) near the axis. The axis and rigid walls are
 // represented by mirror particles (kernels/Mirror.hpp).
@@ -38,6 +39,7 @@ struct SphParams {
 // material model, internal energy, artificial stress R. Writes only particle a.
 struct StrainRateAndStress {
   ViewN<double, 2> x, v;
+  View1<double> hoop_factor;  // out: chi, the hoop term is chi / r (see below)
   View1<double> pair_f;  // out: (dW/dr)/r of every listed pair, 0 beyond the support
   View1<double> mass, rho, plastic_strain, internal_energy;
   ViewN<double, 4> sigma;
@@ -81,7 +83,18 @@ struct StrainRateAndStress {
         L10 = G10 * i00 + G11 * i10; L11 = G10 * i01 + G11 * i11;
       }
     }
-    const double d_tt = vra / r_reg;
+    // Hoop factor chi/r. SPH's discrete radial first moment B00 = sum_b V_b (r_b - r_a)
+    // dW/dr is not exactly 1 on a lattice (0.984 for Wendland C2 at h = 1.3 dp); with the
+    // analytic 1/r, a uniform stress sigma_rr = sigma_tt then leaves a radial body force
+    // (B00 - 1) sigma / (rho r) that bends geostatic columns. Using chi = B00 in both the
+    // hoop rate and the hoop force keeps them conjugate (energy) and makes a uniform
+    // stress an exact discrete equilibrium. Near a free surface B00 is truncated (~0.5):
+    // there chi returns smoothly to 1 (full B00 within 5 % of 1, analytic beyond 10 %).
+    const double dev = math::abs(B00 - 1.0);
+    const double blend = dev <= 0.05 ? 1.0 : (dev >= 0.10 ? 0.0 : (0.10 - dev) / 0.05);
+    const double chi = 1.0 + blend * (B00 - 1.0);
+    hoop_factor(a) = chi;
+    const double d_tt = vra * chi / r_reg;
     const double div = L00 + L11 + d_tt;
     // L01 = dv_r/dz, L10 = dv_z/dr
     const double deps[4] = {L00 * dt, L11 * dt, d_tt * dt, 0.5 * (L01 + L10) * dt};
@@ -137,7 +150,8 @@ struct Acceleration {
   ViewN<double, 3> pair_stress, art_stress;
   View1<int> material;
   View1<int> offsets, neighbours;
-  View1<double> pair_f;  // from StrainRateAndStress, same positions
+  View1<double> pair_f;       // from StrainRateAndStress, same positions
+  View1<double> hoop_factor;  // from StrainRateAndStress
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
   Kokkos::View<const double*, MemSpace> fab_table;  // (W(q)/W(dp))^n tabulated, see below
@@ -196,7 +210,7 @@ struct Acceleration {
       ar += Trr * gr + Trz * gz;
       az += Trz * gr + Tzz * gz;
     }
-    ar -= sigma(i, 2) / (rhoa * r_reg);
+    ar -= sigma(i, 2) * hoop_factor(i) / (rhoa * r_reg);
     az -= p.gravity;
     ar += a_ext(i, 0) - p.damping * vra;
     az += a_ext(i, 1) - p.damping * vza;
@@ -252,9 +266,14 @@ inline Kokkos::View<double*, MemSpace> artificial_stress_table(const SphParams& 
   return table;
 }
 
-// Shepard-filtered stress (periodic regularisation, Bui et al. 2008):
-//   sigma_a <- sum_b sigma_b W_ab V_b / sum_b W_ab V_b   (b includes a)
-// reads sigma, writes sigma_tmp; the caller swaps.
+// Periodic stress regularisation (after Bui et al. 2008, who use a Shepard or MLS filter)
+// with a first-order moving-least-squares interpolant: weights
+//   w_b = V_b W_ab (beta_a . p_ab),  p_ab = (1, r_b - r_a, z_b - z_a),
+//   A_a beta_a = (1, 0, 0),  A_a = sum_b V_b W_ab p_ab p_ab^T   (b includes a)
+// reproduce constant and linear stress fields exactly, also at free surfaces and walls
+// (the zeroth-order Shepard filter biased the near-surface stress, and repeated
+// filtering drifted K0 in the geostatic column), while averaging out particle-scale
+// noise. Falls back to Shepard where A is singular. Reads sigma, writes sigma_out.
 struct StressRegularisation {
   ViewN<double, 2> x;
   View1<double> planar_mass, rho;
@@ -264,18 +283,34 @@ struct StressRegularisation {
 
   KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
     const Wendland2D W(h);
-    const double Va = planar_mass(a) / rho(a);
-    const double w0 = W.value(0.0) * Va;
-    double sum_w = w0;
-    double s[4] = {sigma(a, 0) * w0, sigma(a, 1) * w0, sigma(a, 2) * w0, sigma(a, 3) * w0};
+    const double xa = x(a, 0), za = x(a, 1);
+    // moment matrix (symmetric 3x3), self term included
+    const double w0 = W.value(0.0) * planar_mass(a) / rho(a);
+    double A00 = w0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
-      const double dr = x(a, 0) - x(b, 0), dz = x(a, 1) - x(b, 1);
+      const double dr = x(b, 0) - xa, dz = x(b, 1) - za;
       const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b);
-      sum_w += w;
+      A00 += w; A01 += w * dr; A02 += w * dz;
+      A11 += w * dr * dr; A12 += w * dr * dz; A22 += w * dz * dz;
+    }
+    // beta = A^-1 e1 (first column of the inverse, by cofactors)
+    const double c00 = A11 * A22 - A12 * A12;
+    const double c01 = -(A01 * A22 - A12 * A02);
+    const double c02 = A01 * A12 - A11 * A02;
+    const double det = A00 * c00 + A01 * c01 + A02 * c02;
+    double b0 = 1.0 / A00, b1 = 0.0, b2 = 0.0;  // Shepard fallback
+    if (math::abs(det) > 1e-12 * math::abs(A00 * c00)) {
+      b0 = c00 / det; b1 = c01 / det; b2 = c02 / det;
+    }
+    double s[4] = {sigma(a, 0) * w0 * b0, sigma(a, 1) * w0 * b0, sigma(a, 2) * w0 * b0, sigma(a, 3) * w0 * b0};
+    for (int k = offsets(a); k < offsets(a + 1); ++k) {
+      const int b = neighbours(k);
+      const double dr = x(b, 0) - xa, dz = x(b, 1) - za;
+      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b) * (b0 + b1 * dr + b2 * dz);
       for (int c = 0; c < 4; ++c) s[c] += sigma(b, c) * w;
     }
-    for (int c = 0; c < 4; ++c) sigma_out(a, c) = s[c] / sum_w;
+    for (int c = 0; c < 4; ++c) sigma_out(a, c) = s[c];
   }
 };
 

@@ -29,7 +29,8 @@ struct SphSpec {
                                   // strain rate is then no longer conjugate to the forces
                                   // and total energy is not conserved (about 4 % per 10^4
                                   // steps in the free-vibration test)
-  double neighbour_skin = 0.2;    // Verlet skin as a fraction of h
+  double neighbour_skin = 0.1;    // Verlet skin as a fraction of h (lists rebuilt when a
+                                  // particle has moved half of it)
   double axis_radius_factor = 0.25;// 1/r regularised as 1/max(r, factor*h); below the first
                                    // particle ring (0.5 dp) or an axis mode goes unstable
 };

@@ -268,9 +268,19 @@ void Simulation::advance_to(double end_time, const std::function<bool()>& on_ste
 
 Energies Simulation::energies() const { return energy_sums(particles_, config_.gravity); }
 
+namespace {
+// Horizontal layers (from the blocks) for the geostatic stress kernel; at namespace scope
+// because CUDA lambdas cannot capture function-local types.
+struct GeostaticLayers {
+  static constexpr int max_layers = 16;
+  double z_bot[max_layers], z_top[max_layers], gamma[max_layers];
+  int n = 0;
+};
+}  // namespace
+
 void Simulation::set_geostatic_stress(double k0) {
-  constexpr int max_layers = 16;
-  struct Layers { double z_bot[max_layers], z_top[max_layers], gamma[max_layers]; int n = 0; } layers;
+  GeostaticLayers layers;
+  constexpr int max_layers = GeostaticLayers::max_layers;
   for (const auto& b : config_.blocks) {
     if (layers.n == max_layers) throw std::invalid_argument("set_geostatic_stress: more than 16 blocks");
     int mat = 0;

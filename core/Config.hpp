@@ -54,7 +54,9 @@ struct BlockSpec {
   double velocity_r = 0, velocity_z = 0; // m/s, initial velocity
 };
 
-enum class WallType { None, Fixed, Roller };
+// Fixed / Roller: rigid walls represented by mirror particles. NonReflecting: no mirror;
+// Lysmer-Kuhlemeyer dashpots on the boundary layer of particles (the far field).
+enum class WallType { None, Fixed, Roller, NonReflecting };
 
 struct WallSpec {
   WallType type = WallType::None;

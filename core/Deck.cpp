@@ -496,8 +496,11 @@ WallSpec read_wall(const Table& bnd, const char* key, const char* pos_key, const
   const toml::table* tt = sub_table(bnd, key);
   if (!tt) return w;
   const Table t(bnd.rep(), *tt, bnd.path(key), {"type", pos_key});
-  const std::string type = choice(t, "type", {"fixed", "roller", "none"}, "wall type", std::nullopt);
-  w.type = type == "fixed" ? WallType::Fixed : type == "roller" ? WallType::Roller : WallType::None;
+  const std::string type = choice(t, "type", {"fixed", "roller", "non-reflecting", "none"}, "wall type", std::nullopt);
+  w.type = type == "fixed"            ? WallType::Fixed
+           : type == "roller"         ? WallType::Roller
+           : type == "non-reflecting" ? WallType::NonReflecting
+                                      : WallType::None;
   if (w.type == WallType::None)
     w.position = number(t, pos_key, 0, pos_range, "m");
   else
@@ -554,6 +557,7 @@ const char* wall_name(WallType t) {
   switch (t) {
     case WallType::Fixed: return "fixed";
     case WallType::Roller: return "roller";
+    case WallType::NonReflecting: return "non-reflecting";
     default: return "none";
   }
 }

@@ -24,6 +24,7 @@ struct Particles {
   ViewN<double, 2> a_ext;         // external acceleration (surface tractions), m/s2
   ViewN<double, 2> v_prescribed;  // velocity of FLAG_DRIVEN particles, m/s
   ViewN<double, 2> x_ref;         // position at the last neighbour-list build
+  ViewN<double, 2> traction0;     // static traction on non-reflecting boundary particles, Pa
   View1<double> mass;             // ring mass (the whole ring of revolution), kg
   View1<double> planar_mass;      // mass / (2 pi r): mass per radian of revolution / r, kg/m
   View1<double> rho;              // density, kg/m3
@@ -52,7 +53,7 @@ inline void Particles::reserve(int new_capacity) {
       Kokkos::resize(view, new_capacity);
   };
   grow(x, "x"); grow(v, "v"); grow(a, "a"); grow(a_ext, "a_ext");
-  grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref");
+  grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref"); grow(traction0, "traction0");
   grow(mass, "mass"); grow(planar_mass, "planar_mass"); grow(rho, "rho");
   grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
   grow(pair_stress, "pair_stress");

@@ -38,6 +38,10 @@ Simulation::Simulation(const Config& config) : config_(config) {
   planes.plane[planes.count++] = MirrorPlane{0, 0.0, +1, 0};
   auto add_wall = [&](const WallSpec& w, int axis, int side) {
     if (w.type == WallType::None) return;
+    if (w.type == WallType::NonReflecting) {
+      non_reflecting_.plane[non_reflecting_.count++] = MirrorPlane{axis, w.position, side, 0};
+      return;
+    }
     planes.plane[planes.count++] = MirrorPlane{axis, w.position, side, w.type == WallType::Fixed ? 1 : 0};
   };
   add_wall(config_.bottom, 1, +1);
@@ -158,6 +162,7 @@ void Simulation::build_particles() {
   Kokkos::deep_copy(P.internal_energy, 0.0);
   Kokkos::deep_copy(P.du_visc, 0.0);
   Kokkos::deep_copy(P.hoop_factor, 1.0);
+  Kokkos::deep_copy(P.traction0, 0.0);
   Kokkos::deep_copy(P.flags, 0);
   Kokkos::deep_copy(P.v_prescribed, 0.0);
   const double r_floor = 1e-3 * dp;
@@ -189,6 +194,10 @@ void Simulation::compute_acceleration() {
   Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
                  P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, P.hoop_factor, materials_, sph_, fab_table_};
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
+  if (non_reflecting_.count > 0)
+    Kokkos::parallel_for("tamp::non_reflecting", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                         NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.rho, P.material, materials_,
+                                               non_reflecting_, config_.sph.spacing});
 }
 
 double Simulation::stable_dt() const {
@@ -311,8 +320,30 @@ void Simulation::set_geostatic_stress(double k0) {
                          sigma(i, 2) = k * sv;
                          sigma(i, 3) = 0;
                        });
+  hold_boundary_stress();
   update_pair_stress();
   compute_acceleration();
+}
+
+void Simulation::hold_boundary_stress() {
+  Particles& P = particles_;
+  auto x = P.x; auto sigma = P.sigma; auto t0 = P.traction0;
+  const MirrorPlanes planes = non_reflecting_;
+  const double dp = config_.sph.spacing;
+  Kokkos::parallel_for("tamp::hold_boundary_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       KOKKOS_LAMBDA(int i) {
+                         t0(i, 0) = 0.0;
+                         t0(i, 1) = 0.0;
+                         for (int k = 0; k < planes.count; ++k) {
+                           const MirrorPlane& pl = planes.plane[k];
+                           const double d = (x(i, pl.axis) - pl.position) * pl.side;
+                           if (d < 0.0 || d >= dp) continue;
+                           // outward normal n = -side e_axis; traction on the soil t = sigma . n
+                           const double sn = pl.axis == 0 ? sigma(i, 0) : sigma(i, 1);
+                           t0(i, pl.axis) += -pl.side * sn;
+                           t0(i, 1 - pl.axis) += -pl.side * sigma(i, 3);
+                         }
+                       });
 }
 
 void Simulation::prescribe_velocity(const Box& box, double v_r, double v_z) {

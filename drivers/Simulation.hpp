@@ -59,6 +59,12 @@ class Simulation {
   // state still needs a short dynamic relaxation (SPH is not in exact discrete equilibrium).
   void set_geostatic_stress(double k0 = -1.0);
 
+  // Records, on the particles next to each non-reflecting boundary, the traction sigma.n
+  // that the removed far field exerts now, and keeps it as a constant load (the dashpots
+  // act on top of it). Called by set_geostatic_stress; call it after setting another
+  // initial stress by hand.
+  void hold_boundary_stress();
+
   // Particles inside `box` take the velocity (v_r, v_z) from now on (m/s).
   void prescribe_velocity(const Box& box, double v_r, double v_z);
   // A surface traction (t_r, t_z) in Pa on the particles in `box`, which form a boundary
@@ -80,6 +86,7 @@ class Simulation {
   Kokkos::View<MaterialParams*, MemSpace> materials_;
   Particles particles_;
   MirrorGhosts ghosts_;
+  MirrorPlanes non_reflecting_;  // boundaries with Lysmer dashpots (no mirror particles)
   NeighbourList neighbours_;
   Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
   View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop

@@ -257,6 +257,35 @@ struct PairStress {
   }
 };
 
+// Non-reflecting boundary (Lysmer & Kuhlemeyer 1969): the particles within one spacing
+// of the boundary plane carry the traction of viscous dashpots,
+//   t_n = -rho c_p v_n,   t_t = -rho c_s v_t,   c_p = sqrt((K + 4G/3)/rho), c_s = sqrt(G/rho),
+// plus the static traction t0 recorded per particle (geostatic support), as a force on the
+// particle's ring: a = t (face_r / r) / (rho dp) (face_r / r = 1 for a face z = const).
+struct NonReflectingBoundary {
+  ViewN<double, 2> x, v, a, traction0;
+  View1<double> rho;
+  View1<int> material;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
+  MirrorPlanes planes;  // reused geometry: axis, position, side
+  double dp;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    for (int k = 0; k < planes.count; ++k) {
+      const MirrorPlane& pl = planes.plane[k];
+      const double d = (x(i, pl.axis) - pl.position) * pl.side;
+      if (d < 0.0 || d >= dp) continue;
+      const MaterialParams& m = materials(material(i));
+      const double cp = math::sqrt(m.p_wave_modulus() / rho(i)), cs = math::sqrt(m.shear_modulus / rho(i));
+      const int n = pl.axis, t = 1 - pl.axis;
+      const double ratio = pl.axis == 0 ? pl.position / math::max(x(i, 0), 1e-12) : 1.0;
+      const double k_a = ratio / (rho(i) * dp);
+      a(i, n) += k_a * (traction0(i, n) - rho(i) * cp * v(i, n));
+      a(i, t) += k_a * (traction0(i, t) - rho(i) * cs * v(i, t));
+    }
+  }
+};
+
 // Table of f_ab^n = (W(q h) / W(dp))^n at q = 2 k / (n_entries - 1), k = 0 .. n_entries-1
 // (relative interpolation error below 1e-5 with 2049 entries).
 inline Kokkos::View<double*, MemSpace> artificial_stress_table(const SphParams& p, int n_entries = 2049) {

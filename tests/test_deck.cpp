@@ -525,3 +525,17 @@ TEST_CASE("Deck: load_deck reads a file and names it in errors", "[deck]") {
   }
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("Deck: non-reflecting boundaries parse and round-trip", "[deck]") {
+  Parts p;
+  p.rest = "[boundaries]\nbottom = { type = \"non-reflecting\", z = 0 }\nouter = { type = \"non-reflecting\", r = 1.0 }\n";
+  const Config c = parse_deck(p.text(), "deck.toml");
+  CHECK(c.bottom.type == WallType::NonReflecting);
+  CHECK(c.outer.type == WallType::NonReflecting);
+  CHECK(c.outer.position == 1.0);
+  const Config d = parse_deck(to_toml(c), "round-trip.toml");
+  CHECK(d.bottom.type == WallType::NonReflecting);
+  CHECK(d.outer.position == 1.0);
+  p.rest = "[boundaries]\nouter = { type = \"absorbing\", r = 1.0 }\n";
+  require_error(p.text(), {"deck.toml", "boundaries.outer.type", "absorbing", "non-reflecting"});
+}

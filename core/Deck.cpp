@@ -1,4 +1,5 @@
 // Input decks: TOML -> validated Config (see Deck.hpp for the layout), Config -> TOML.
+#include "core/Format.hpp"
 #include "core/Deck.hpp"
 
 #include <array>
@@ -29,14 +30,6 @@ constexpr double kUnitWeightGravity = 9.81;
 
 // ---------------------------------------------------------------- formatting helpers
 
-// Shortest text that reads back to exactly x ("0.6", "1e+09", "-1800").
-std::string fmt_num(double x) {
-  if (std::isnan(x)) return "nan";
-  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof buf, x);
-  return std::string(buf, res.ptr);
-}
 
 // As fmt_num, but always a TOML float ("5.0" rather than "5").
 std::string fmt_float(double x) {

@@ -1,4 +1,5 @@
 // Results output: HDF5 particle snapshots, XDMF time series, CSV tables.
+#include "core/Format.hpp"
 #include "core/Output.hpp"
 
 #include <cerrno>
@@ -205,13 +206,6 @@ void check_sizes(const ParticleSnapshot& s, const std::string& where) {
 
 // ---------------------------------------------------------------- text helpers
 
-std::string fmt_num(double x) {
-  if (std::isnan(x)) return "nan";
-  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof buf, x);
-  return std::string(buf, res.ptr);
-}
 
 std::string xml_escape(const std::string& s) {
   std::string out;

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "drivers/LabMaterials.hpp"
 #include "drivers/Simulation.hpp"
 
 using namespace tamp;
@@ -30,13 +31,7 @@ static Config block_config(int n_target) {
   c.sph.spacing = dp;
   c.gravity = 9.81;
   c.damping = 0.0;
-  MaterialSpec clay;
-  clay.name = "clay";
-  clay.model = "tresca";
-  clay.density = 18.7e3 / 9.81;
-  clay.shear_modulus = 1.39e6;
-  clay.poisson_ratio = 0.31;
-  clay.cohesion = 10.2e3;
+  const MaterialSpec clay = lab::clay("tresca");
   c.materials = {clay};
   BlockSpec b;
   b.material = "clay";

@@ -2,21 +2,13 @@
 #pragma once
 #include <vector>
 #include "core/Config.hpp"
+#include "drivers/LabMaterials.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace tamp::testing {
 
-// The lab clay of the reference paper (shared/data/lab-test.toml, copied in data/),
-// elastic: G = 1.39 MPa, nu = 0.31, unit weight 18.7 kN/m3.
-inline MaterialSpec lab_clay_elastic() {
-  MaterialSpec m;
-  m.name = "clay";
-  m.model = "elastic";
-  m.density = 18.7e3 / 9.81;
-  m.shear_modulus = 1.39e6;
-  m.poisson_ratio = 0.31;
-  return m;
-}
+// The lab clay of the reference paper, elastic (drivers/LabMaterials.hpp).
+inline MaterialSpec lab_clay_elastic() { return lab::clay("elastic"); }
 
 inline Config column_config(double radius, double height, double spacing) {
   Config c;

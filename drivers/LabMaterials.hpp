@@ -1,0 +1,23 @@
+// The soils of the reference laboratory test (data/lab-test.toml, copied from the paper's
+// figures with provenance), as deck material entries for scenarios, tests and benchmarks.
+#pragma once
+#include "core/Config.hpp"
+
+namespace tamp::lab {
+
+constexpr double g = 9.81;  // m/s2, converts the paper's unit weights to densities
+
+// Soft silty clay, undrained: G = 1.39 MPa, nu = 0.31, unit weight 18.7 kN/m3, Su = 10.2 kPa.
+// model: "elastic" or "tresca".
+inline MaterialSpec clay(const std::string& model = "tresca") {
+  MaterialSpec m;
+  m.name = "clay";
+  m.model = model;
+  m.density = 18.7e3 / g;
+  m.shear_modulus = 1.39e6;
+  m.poisson_ratio = 0.31;
+  if (model == "tresca") m.cohesion = 10.2e3;
+  return m;
+}
+
+}  // namespace tamp::lab

@@ -392,4 +392,112 @@ void write_csv(const std::string& path, const std::vector<std::string>& header,
   if (!out) throw std::runtime_error(path + ": cannot write the CSV file");
 }
 
+
+// ---------------------------------------------------------------- checkpoints
+
+namespace {
+std::string join_names(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ",") + n;
+  return s;
+}
+std::vector<std::string> split_names(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (start < s.size()) {
+    const std::size_t end = s.find(',', start);
+    out.push_back(s.substr(start, end == std::string::npos ? std::string::npos : end - start));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return out;
+}
+void write_string_attribute(const Handle& obj, const char* name, const std::string& value, const std::string& where) {
+  const std::string what = where + ": cannot write attribute " + name;
+  const Handle str(H5Tcopy(H5T_C_S1), H5Tclose, what);
+  h5_check(H5Tset_size(str.get(), value.size() + 1), what);
+  const Handle space = scalar_space(what);
+  const Handle attr(H5Acreate2(obj.get(), name, str.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
+  h5_check(H5Awrite(attr.get(), str.get(), value.c_str()), what);
+}
+std::string read_string_attribute(const Handle& obj, const char* name, const std::string& where) {
+  const std::string what = where + ": cannot read attribute " + name;
+  const Handle attr(H5Aopen(obj.get(), name, H5P_DEFAULT), H5Aclose, what);
+  const Handle type(H5Aget_type(attr.get()), H5Tclose, what);
+  std::vector<char> buf(H5Tget_size(type.get()) + 1, '\0');
+  h5_check(H5Aread(attr.get(), type.get(), buf.data()), what);
+  return std::string(buf.data());
+}
+// Reads an n x width dataset (or 1-D) as row-major values.
+template <class T>
+void read_table(const Handle& group, const std::string& name, hid_t mem_type, std::vector<T>& out, int& width,
+                const std::string& where) {
+  const std::string what = where + ": cannot read dataset /checkpoint/" + name;
+  const Handle dset(H5Dopen2(group.get(), name.c_str(), H5P_DEFAULT), H5Dclose, what);
+  const Handle space(H5Dget_space(dset.get()), H5Sclose, what);
+  const int nd = H5Sget_simple_extent_ndims(space.get());
+  if (nd < 1 || nd > 2) throw std::runtime_error(what + ": expected a 1-D or 2-D dataset");
+  hsize_t dims[2] = {0, 1};
+  H5Sget_simple_extent_dims(space.get(), dims, nullptr);
+  width = static_cast<int>(nd == 2 ? dims[1] : 1);
+  out.resize(static_cast<std::size_t>(dims[0] * (nd == 2 ? dims[1] : 1)));
+  if (!out.empty()) h5_check(H5Dread(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), what);
+}
+}  // namespace
+
+void write_checkpoint_h5(const std::string& path, const Checkpoint& c) {
+  const QuietErrors quiet;
+  const std::string tmp = path + ".tmp";
+  try {
+    Handle file = create_file(tmp, path);
+    {
+      const Handle group = create_group(file, "/checkpoint", path);
+      std::vector<std::string> real_names, int_names, scalar_names;
+      for (const auto& [name, a] : c.reals) {
+        const hsize_t w = static_cast<hsize_t>(a.width), n = a.values.size() / w;
+        write_dataset(group, name, {n, w}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, a.values.data(), "SI", path);
+        real_names.push_back(name);
+      }
+      for (const auto& [name, a] : c.ints) {
+        const hsize_t w = static_cast<hsize_t>(a.width), n = a.values.size() / w;
+        write_dataset(group, name, {n, w}, H5T_STD_I32LE, H5T_NATIVE_INT, a.values.data(), "1", path);
+        int_names.push_back(name);
+      }
+      for (const auto& [name, v] : c.scalars) {
+        write_scalar_attribute(group, name.c_str(), H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &v, path);
+        scalar_names.push_back(name);
+      }
+      write_string_attribute(group, "real_fields", join_names(real_names), path);
+      write_string_attribute(group, "int_fields", join_names(int_names), path);
+      write_string_attribute(group, "scalars", join_names(scalar_names), path);
+    }
+    file.close(path + ": cannot close the HDF5 file");
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw;
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw std::runtime_error(path + ": cannot replace the file (" + ec.message() + ")");
+}
+
+Checkpoint read_checkpoint_h5(const std::string& path) {
+  const QuietErrors quiet;
+  Checkpoint c;
+  const Handle file = open_file(path);
+  const Handle group = open_group(file, "/checkpoint", path);
+  for (const auto& name : split_names(read_string_attribute(group, "real_fields", path))) {
+    auto& a = c.reals[name];
+    read_table(group, name, H5T_NATIVE_DOUBLE, a.values, a.width, path);
+  }
+  for (const auto& name : split_names(read_string_attribute(group, "int_fields", path))) {
+    auto& a = c.ints[name];
+    read_table(group, name, H5T_NATIVE_INT, a.values, a.width, path);
+  }
+  for (const auto& name : split_names(read_string_attribute(group, "scalars", path)))
+    read_scalar_attribute(group, name.c_str(), H5T_NATIVE_DOUBLE, &c.scalars[name], path);
+  return c;
+}
+
 }  // namespace tamp

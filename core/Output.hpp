@@ -12,6 +12,7 @@
 // std::runtime_error naming the file (std::invalid_argument for bad arguments).
 #pragma once
 #include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -66,6 +67,20 @@ class XdmfSeries {
 
 // Comma-separated table; doubles written with round-trip precision (shortest exact form).
 // `header` may be empty (no header line); otherwise every row must have header.size() values.
+// A restartable state: named arrays of n x width values (row-major), integers, and scalars.
+// Written by the driver at the end of every stage/output and read by `tamp run --restart`.
+struct Checkpoint {
+  struct Real { std::vector<double> values; int width = 1; };
+  struct Int { std::vector<int> values; int width = 1; };
+  std::map<std::string, Real> reals;
+  std::map<std::string, Int> ints;
+  std::map<std::string, double> scalars;
+};
+// HDF5 file with group /checkpoint: one dataset per array (n x width), one attribute per
+// scalar. Written to path.tmp and renamed, so an interrupted write never leaves half a file.
+void write_checkpoint_h5(const std::string& path, const Checkpoint& c);
+Checkpoint read_checkpoint_h5(const std::string& path);
+
 void write_csv(const std::string& path, const std::vector<std::string>& header,
                const std::vector<std::vector<double>>& rows);
 

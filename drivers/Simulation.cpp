@@ -376,6 +376,118 @@ void Simulation::apply_surface_traction(const Box& box, double t_r, double t_z, 
                        });
 }
 
+namespace {
+// Host copies of the first n rows of a view, row-major, into a checkpoint array.
+template <class V, class Array>
+void put_rows(const V& view, int n, Array& out) {
+  auto h = Kokkos::create_mirror_view_and_copy(HostSpace(), view);
+  const int w = V::rank == 2 ? static_cast<int>(view.extent(1)) : 1;
+  out.width = w;
+  out.values.resize(static_cast<size_t>(n) * w);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < w; ++k) {
+      if constexpr (V::rank == 2) out.values[size_t(i) * w + k] = h(i, k);
+      else out.values[i] = h(i);
+    }
+}
+template <class V, class Array>
+void get_rows(const Array& in, const std::string& name, const V& view, int n) {
+  const int w = V::rank == 2 ? static_cast<int>(view.extent(1)) : 1;
+  if (in.width != w || in.values.size() != static_cast<size_t>(n) * w)
+    throw std::invalid_argument("checkpoint field '" + name + "' has " + std::to_string(in.values.size()) +
+                                " values of width " + std::to_string(in.width) + "; this deck needs " +
+                                std::to_string(n) + " x " + std::to_string(w));
+  auto h = Kokkos::create_mirror_view_and_copy(HostSpace(), view);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < w; ++k) {
+      if constexpr (V::rank == 2) h(i, k) = in.values[size_t(i) * w + k];
+      else h(i) = in.values[i];
+    }
+  Kokkos::deep_copy(view, h);
+}
+}  // namespace
+
+Checkpoint Simulation::save_state() {
+  refresh_neighbours(true);
+  const Particles& P = particles_;
+  const int n = P.n_real;
+  Checkpoint c;
+  put_rows(P.x, n, c.reals["x"]);
+  put_rows(P.v, n, c.reals["v"]);
+  put_rows(P.a, n, c.reals["a"]);
+  put_rows(P.a_ext, n, c.reals["a_ext"]);
+  put_rows(P.v_prescribed, n, c.reals["v_prescribed"]);
+  put_rows(P.traction0, n, c.reals["traction0"]);
+  put_rows(P.mass, n, c.reals["mass"]);
+  put_rows(P.rho, n, c.reals["rho"]);
+  put_rows(P.sigma, n, c.reals["sigma"]);
+  put_rows(P.plastic_strain, n, c.reals["plastic_strain"]);
+  put_rows(P.internal_energy, n, c.reals["internal_energy"]);
+  put_rows(P.du_visc, n, c.reals["du_visc"]);
+  put_rows(P.material, n, c.ints["material"]);
+  put_rows(P.flags, n, c.ints["flags"]);
+  c.scalars["time"] = time_;
+  c.scalars["steps"] = static_cast<double>(steps_);
+  c.scalars["particles"] = n;
+  return c;
+}
+
+void Simulation::load_state(const Checkpoint& c) {
+  Particles& P = particles_;
+  const int n = P.n_real;
+  auto scalar = [&](const char* name) {
+    auto it = c.scalars.find(name);
+    if (it == c.scalars.end()) throw std::invalid_argument(std::string("checkpoint has no '") + name + "'");
+    return it->second;
+  };
+  if (static_cast<int>(scalar("particles")) != n)
+    throw std::invalid_argument("checkpoint has " + std::to_string(static_cast<long>(scalar("particles"))) +
+                                " particles; the deck makes " + std::to_string(n));
+  auto real = [&](const char* name) -> const Checkpoint::Real& {
+    auto it = c.reals.find(name);
+    if (it == c.reals.end()) throw std::invalid_argument(std::string("checkpoint has no field '") + name + "'");
+    return it->second;
+  };
+  auto integer = [&](const char* name) -> const Checkpoint::Int& {
+    auto it = c.ints.find(name);
+    if (it == c.ints.end()) throw std::invalid_argument(std::string("checkpoint has no field '") + name + "'");
+    return it->second;
+  };
+  get_rows(real("x"), "x", P.x, n);
+  get_rows(real("v"), "v", P.v, n);
+  get_rows(real("a"), "a", P.a, n);
+  get_rows(real("a_ext"), "a_ext", P.a_ext, n);
+  get_rows(real("v_prescribed"), "v_prescribed", P.v_prescribed, n);
+  get_rows(real("traction0"), "traction0", P.traction0, n);
+  get_rows(real("mass"), "mass", P.mass, n);
+  get_rows(real("rho"), "rho", P.rho, n);
+  get_rows(real("sigma"), "sigma", P.sigma, n);
+  get_rows(real("plastic_strain"), "plastic_strain", P.plastic_strain, n);
+  get_rows(real("internal_energy"), "internal_energy", P.internal_energy, n);
+  get_rows(real("du_visc"), "du_visc", P.du_visc, n);
+  get_rows(integer("material"), "material", P.material, n);
+  get_rows(integer("flags"), "flags", P.flags, n);
+  time_ = scalar("time");
+  steps_ = static_cast<long>(scalar("steps"));
+  sph_.gravity = gravity_at(time_);
+  refresh_planar_mass();
+  refresh_neighbours(true);
+  // pair quantities of the restored state; the stored accelerations are kept (they were
+  // computed with the half-step velocities, which a full-step state cannot reproduce)
+  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       PairKernelFactors{P.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+  update_pair_stress();
+}
+
+void Simulation::refresh_planar_mass() {
+  Particles& P = particles_;
+  auto x = P.x; auto m = P.mass; auto mp = P.planar_mass;
+  const double r_floor = 1e-3 * config_.sph.spacing;
+  Kokkos::parallel_for("tamp::planar_mass", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), KOKKOS_LAMBDA(int i) {
+    mp(i) = m(i) / (2.0 * pi * math::max(x(i, 0), r_floor));
+  });
+}
+
 ParticleSnapshot Simulation::snapshot() const {
   const Particles& P = particles_;
   const int n = P.n_real;

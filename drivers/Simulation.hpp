@@ -53,6 +53,18 @@ class Simulation {
   Energies energies() const;
   ParticleSnapshot snapshot() const;
 
+  // The full restartable state of the real particles (positions, velocities, the
+  // accelerations of the last half-kick, stresses, histories, loads) and the clock. Also
+  // rebuilds the neighbour list and ghosts now, so that a run restarted from this state
+  // and this run continue from identical lists: restarts reproduce the uninterrupted run
+  // bit for bit on a deterministic back end.
+  Checkpoint save_state();
+  // Replaces the particle state and clock by a checkpoint of a run of the same deck
+  // (same particle count); throws std::invalid_argument naming what does not match.
+  void load_state(const Checkpoint& c);
+  // Planar masses m / (2 pi r) of the real particles from their ring masses and radii.
+  void refresh_planar_mass();
+
   // Initial geostatic stress for horizontally layered blocks: sigma_zz = -(weight of the
   // blocks above the particle per unit area) with the deck's gravity, sigma_rr = sigma_tt
   // = k0 sigma_zz, where k0 < 0 means nu / (1 - nu) of each particle's material. The

@@ -2,7 +2,9 @@
 //   tamp run DECK --out DIR [--force]   run a deck, results in DIR
 //   tamp check DECK                     validate a deck and print what it would run
 //   tamp --version
-// Exit codes: 0 ok, 2 bad input, 1 run failure (or interrupted).
+//   tamp run DECK --out DIR --restart OLD/checkpoint.h5   resume an interrupted run
+// Exit codes: 0 ok, 2 bad input, 1 run failure (or interrupted). Every snapshot also
+// writes DIR/checkpoint.h5, the last good restartable state.
 #include <CLI/CLI.hpp>
 #include <Kokkos_Core.hpp>
 #include <atomic>
@@ -75,8 +77,20 @@ int cmd_check(const std::string& deck) {
   return 0;
 }
 
-int cmd_run(const std::string& deck, const std::string& out, bool force) {
+int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart) {
   Config cfg = load_deck(deck);  // validated before any work
+  tamp::Checkpoint resume;
+  if (!restart.empty()) {
+    if (!fs::exists(restart)) {
+      tamp::log::error("restart checkpoint '" + restart + "' does not exist");
+      return 2;
+    }
+    try {
+      resume = tamp::read_checkpoint_h5(restart);  // read before the result folder may be replaced
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument(std::string(e.what()) + " (is it a checkpoint.h5 written by tamp run?)");
+    }
+  }
   if (fs::exists(out)) {
     if (!force) {
       tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
@@ -88,8 +102,20 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   { std::ofstream(out + "/deck.toml") << to_toml(cfg); }
 
   Simulation sim(cfg);
+  if (!restart.empty()) {
+    sim.load_state(resume);
+    tamp::log::info("restarted from " + restart + " at t = " + std::to_string(sim.time()) + " s, step " +
+                    std::to_string(sim.steps()));
+  }
   print_plan(cfg, sim, std::cerr);
   XdmfSeries series(out + "/particles.xdmf");
+  const std::string checkpoint_path = out + "/checkpoint.h5";
+  double checkpoint_time = -1;
+  // The restartable state, written with every snapshot: the last good state on failure.
+  auto write_checkpoint = [&]() {
+    tamp::write_checkpoint_h5(checkpoint_path, sim.save_state());
+    checkpoint_time = sim.time();
+  };
   int n_snap = 0;
   long last_snapshot_step = -1;
   std::vector<std::vector<double>> energy_rows;
@@ -107,6 +133,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
     series.add(name, s);
     series.write();
     write_energy();
+    write_checkpoint();
   };
   auto record_energy = [&]() {
     Energies e = sim.energies();
@@ -119,6 +146,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   const auto t0 = std::chrono::steady_clock::now();
   auto last_progress = t0;
   double next_output = cfg.run.output_interval > 0 ? cfg.run.output_interval : 1e300;
+  while (next_output <= sim.time()) next_output += cfg.run.output_interval;  // after a restart
   const long energy_every = 50;
   std::string failure;
   try {
@@ -147,7 +175,8 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
   record_energy();
   write_energy();
   if (!failure.empty()) {
-    tamp::log::error("run failed: " + failure + "; last good snapshot in " + out);
+    tamp::log::error("run failed: " + failure + "; last good state (t = " + std::to_string(checkpoint_time) +
+                     " s) in " + checkpoint_path + " (resume with --restart " + checkpoint_path + " --out NEWDIR)");
     return 1;
   }
   write_snapshot();
@@ -156,7 +185,8 @@ int cmd_run(const std::string& deck, const std::string& out, bool force) {
        << " s, " << fmt("%.3g", sim.particle_count() * double(sim.steps()) / wall) << " particle-steps/s";
   tamp::log::info(done.str());
   if (g_interrupted) {
-    tamp::log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; state written to " + out);
+    tamp::log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; checkpoint " + checkpoint_path +
+                     " (resume with: tamp run DECK --restart " + checkpoint_path + " --out NEWDIR)");
     return 1;
   }
   return 0;
@@ -168,12 +198,14 @@ int main(int argc, char** argv) {
   CLI::App app{"Tamp: particle simulation of dynamic replacement (axisymmetric SPH for soils)"};
   app.set_version_flag("--version", std::string("tamp ") + TAMP_VERSION);
   app.require_subcommand(1);
-  std::string deck, out;
+  std::string deck, out, restart;
   bool force = false;
   auto* run = app.add_subcommand("run", "Run an input deck and write the results to a folder");
   run->add_option("deck", deck, "Input deck (TOML), e.g. examples/geostatic-clay.toml")->required();
   run->add_option("--out", out, "Result folder (must not exist unless --force)")->required();
   run->add_flag("--force", force, "Overwrite an existing result folder");
+  run->add_option("--restart", restart,
+                  "Resume from a checkpoint (DIR/checkpoint.h5 of an earlier run of the same deck)");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
   try {
@@ -186,7 +218,7 @@ int main(int argc, char** argv) {
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
-    if (*run) rc = cmd_run(deck, out, force);
+    if (*run) rc = cmd_run(deck, out, force, restart);
     if (*check) rc = cmd_check(deck);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

@@ -1,0 +1,280 @@
+// A small host driver for the axisymmetric quad FEM (kernels/FemQuad.hpp): a structured
+// mesh of one rectangular block [r0, r1] x [z0, z1] with nr x nz elements and one material,
+// nodal boundary conditions, and central-difference stepping. Header-only. docs/fem.md.
+#pragma once
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "kernels/FemQuad.hpp"
+
+namespace tamp::fem {
+
+struct FemBlock {
+  double r0 = 0, r1 = 1, z0 = 0, z1 = 1;  // m
+  int nr = 1, nz = 1;                     // elements along r and z
+};
+
+struct FemOptions {
+  double cfl = 0.8;                      // dt = cfl * min_e L_e / c_e (1.0 ran stable)
+  int hourglass = HOURGLASS_STIFFNESS;   // HourglassForm
+  double hourglass_coefficient = 0.1;    // kappa (docs/fem.md)
+  double gravity = 0.0;                  // m/s2, acting in -z
+  double damping = 0.0;                  // 1/s, mass-proportional (dynamic relaxation)
+  bool axis_symmetry = true;             // r0 == 0: the axis nodes get v_r = 0
+};
+
+// Boundary condition of a block side. Roller: the normal velocity is zero. Velocity: both
+// components prescribed (vr, vz).
+enum class FemSide { Inner, Outer, Bottom, Top };  // r = r0, r = r1, z = z0, z = z1
+enum class FemBc { Free, Fixed, Roller, Velocity };
+
+struct FemEnergies {
+  double kinetic = 0;    // J, from the half-step velocities
+  double internal = 0;   // J, work of the stresses
+  double hourglass = 0;  // J, work of the hourglass forces
+};
+
+class FemModel {
+ public:
+  FemModel(const MaterialParams& material, const FemBlock& block, const FemOptions& options = {})
+      : block_(block), opt_(options) {
+    if (block.nr < 1 || block.nz < 1 || !(block.r1 > block.r0) || !(block.z1 > block.z0) ||
+        block.r0 < 0)
+      throw std::invalid_argument("FemModel: bad block");
+    const int nn = (block.nr + 1) * (block.nz + 1), ne = block.nr * block.nz;
+    mesh_.n_nodes = nn;
+    mesh_.n_elements = ne;
+    mesh_.x = ViewN<double, 2>("fem::x", nn);
+    mesh_.x0 = ViewN<double, 2>("fem::x0", nn);
+    mesh_.v = ViewN<double, 2>("fem::v", nn);
+    mesh_.f_int = ViewN<double, 2>("fem::f_int", nn);
+    mesh_.f_ext = ViewN<double, 2>("fem::f_ext", nn);
+    mesh_.v_bc = ViewN<double, 2>("fem::v_bc", nn);
+    mesh_.mass = View1<double>("fem::mass", nn);
+    mesh_.bc = View1<int>("fem::bc", nn);
+    mesh_.conn = Kokkos::View<int* [4], MemSpace>("fem::conn", ne);
+    mesh_.material = View1<int>("fem::material", ne);
+    mesh_.stress = ViewN<double, 4>("fem::stress", ne);
+    mesh_.strain_rate = ViewN<double, 4>("fem::strain_rate", ne);
+    mesh_.plastic_strain = View1<double>("fem::plastic_strain", ne);
+    mesh_.elem_mass = View1<double>("fem::elem_mass", ne);
+    mesh_.volume = View1<double>("fem::volume", ne);
+    mesh_.hourglass_force = ViewN<double, 2>("fem::hourglass_force", ne);
+    mesh_.internal_energy = View1<double>("fem::internal_energy", ne);
+    mesh_.hourglass_energy = View1<double>("fem::hourglass_energy", ne);
+    mesh_.materials = Kokkos::View<MaterialParams*, MemSpace>("fem::materials", 1);
+    auto mat_h = Kokkos::create_mirror_view(mesh_.materials);
+    mat_h(0) = material;
+    Kokkos::deep_copy(mesh_.materials, mat_h);
+    density_ = material.density;
+
+    auto conn_h = Kokkos::create_mirror_view(mesh_.conn);
+    for (int j = 0; j < block.nz; ++j)
+      for (int i = 0; i < block.nr; ++i) {
+        const int e = element(i, j);
+        conn_h(e, 0) = node(i, j);
+        conn_h(e, 1) = node(i + 1, j);
+        conn_h(e, 2) = node(i + 1, j + 1);
+        conn_h(e, 3) = node(i, j + 1);
+      }
+    Kokkos::deep_copy(mesh_.conn, conn_h);
+
+    std::vector<double> r(nn), z(nn);
+    for (int j = 0; j <= block.nz; ++j)
+      for (int i = 0; i <= block.nr; ++i) {
+        r[node(i, j)] = block.r0 + (block.r1 - block.r0) * i / block.nr;
+        z[node(i, j)] = block.z0 + (block.z1 - block.z0) * j / block.nz;
+      }
+    set_node_positions(r, z);
+    if (block.r0 == 0 && opt_.axis_symmetry) set_side(FemSide::Inner, FemBc::Roller);
+    scatter_ = Kokkos::Experimental::create_scatter_view(mesh_.f_int);
+  }
+
+  int node(int i, int j) const { return j * (block_.nr + 1) + i; }
+  int element(int i, int j) const { return j * block_.nr + i; }
+  const FemBlock& block() const { return block_; }
+  const FemOptions& options() const { return opt_; }
+  FemMesh& mesh() { return mesh_; }
+  const FemMesh& mesh() const { return mesh_; }
+  double time() const { return time_; }
+  long steps() const { return steps_; }
+  double last_dt() const { return dt_prev_; }
+  // The step the next call of step() takes: cfl * min_e L_e / c_e.
+  double stable_dt() {
+    if (!(stable_dt_ > 0)) compute_forces(0.0);
+    return opt_.cfl * stable_dt_;
+  }
+
+  // Moves the nodes (e.g. to a distorted mesh) and makes this the reference configuration:
+  // the lumped masses and the element masses are recomputed; state is not touched.
+  void set_node_positions(const std::vector<double>& r, const std::vector<double>& z) {
+    const int nn = mesh_.n_nodes, ne = mesh_.n_elements;
+    if ((int)r.size() != nn || (int)z.size() != nn)
+      throw std::invalid_argument("FemModel::set_node_positions: size");
+    auto x_h = Kokkos::create_mirror_view(mesh_.x);
+    for (int i = 0; i < nn; ++i) { x_h(i, 0) = r[i]; x_h(i, 1) = z[i]; }
+    auto conn_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.conn);
+    auto mass_h = Kokkos::create_mirror_view(mesh_.mass);
+    auto emass_h = Kokkos::create_mirror_view(mesh_.elem_mass);
+    Kokkos::deep_copy(mass_h, 0.0);
+    for (int e = 0; e < ne; ++e) {
+      double re[4], ze[4], w[4];
+      for (int k = 0; k < 4; ++k) { re[k] = r[conn_h(e, k)]; ze[k] = z[conn_h(e, k)]; }
+      QuadGeometry g;
+      if (!quad_geometry(re, ze, g))
+        throw std::invalid_argument("FemModel: element " + std::to_string(e) + " is inverted");
+      emass_h(e) = density_ * g.volume;
+      quad_mass_weights(re, ze, w);
+      for (int k = 0; k < 4; ++k) mass_h(conn_h(e, k)) += density_ * w[k];
+    }
+    Kokkos::deep_copy(mesh_.x, x_h);
+    Kokkos::deep_copy(mesh_.x0, x_h);
+    Kokkos::deep_copy(mesh_.mass, mass_h);
+    Kokkos::deep_copy(mesh_.elem_mass, emass_h);
+    stable_dt_ = 0;  // geometry changed: forces and step recomputed on demand
+    forces_valid_ = false;
+  }
+
+  // Boundary conditions. Flags accumulate (a corner on a roller side and a fixed side is
+  // fixed); a later prescribed value overwrites an earlier one.
+  void set_node_bc(int n, int flags, double vr = 0, double vz = 0) {
+    auto bc_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.bc);
+    auto vbc_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.v_bc);
+    apply_bc(bc_h, vbc_h, n, flags, vr, vz);
+    Kokkos::deep_copy(mesh_.bc, bc_h);
+    Kokkos::deep_copy(mesh_.v_bc, vbc_h);
+  }
+  void set_side(FemSide side, FemBc type, double vr = 0, double vz = 0) {
+    auto bc_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.bc);
+    auto vbc_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.v_bc);
+    const bool r_side = (side == FemSide::Inner || side == FemSide::Outer);
+    int flags = BC_NONE;
+    switch (type) {
+      case FemBc::Free: flags = BC_NONE; break;
+      case FemBc::Fixed: flags = BC_R | BC_Z; vr = vz = 0; break;
+      case FemBc::Roller: flags = r_side ? BC_R : BC_Z; vr = vz = 0; break;
+      case FemBc::Velocity: flags = BC_R | BC_Z; break;
+    }
+    const int count = r_side ? block_.nz + 1 : block_.nr + 1;
+    for (int k = 0; k < count; ++k) {
+      int n = 0;
+      switch (side) {
+        case FemSide::Inner: n = node(0, k); break;
+        case FemSide::Outer: n = node(block_.nr, k); break;
+        case FemSide::Bottom: n = node(k, 0); break;
+        case FemSide::Top: n = node(k, block_.nz); break;
+      }
+      apply_bc(bc_h, vbc_h, n, flags, vr, vz);
+    }
+    Kokkos::deep_copy(mesh_.bc, bc_h);
+    Kokkos::deep_copy(mesh_.v_bc, vbc_h);
+  }
+
+  // Initial state setters (host vectors indexed by node / element).
+  void set_velocities(const std::vector<double>& vr, const std::vector<double>& vz) {
+    auto v_h = Kokkos::create_mirror_view(mesh_.v);
+    for (int i = 0; i < mesh_.n_nodes; ++i) { v_h(i, 0) = vr.at(i); v_h(i, 1) = vz.at(i); }
+    Kokkos::deep_copy(mesh_.v, v_h);
+  }
+  void set_uniform_stress(const double s[4]) {
+    auto s_h = Kokkos::create_mirror_view(mesh_.stress);
+    for (int e = 0; e < mesh_.n_elements; ++e)
+      for (int c = 0; c < 4; ++c) s_h(e, c) = s[c];
+    Kokkos::deep_copy(mesh_.stress, s_h);
+    forces_valid_ = false;
+  }
+
+  // Element pass alone: the strain increment of the current velocities over dt (dt = 0:
+  // none), the stress update, and the assembled internal forces at the current positions.
+  void compute_forces(double dt) { element_pass(dt, 0.0); }
+
+  // One central-difference step; dt <= 0 takes the stable step.
+  void step(double dt = 0) {
+    if (!forces_valid_) compute_forces(0.0);
+    if (!(dt > 0)) dt = opt_.cfl * stable_dt_;
+    QuadNodeUpdate upd;
+    upd.x = mesh_.x; upd.v = mesh_.v; upd.f_int = mesh_.f_int; upd.f_ext = mesh_.f_ext;
+    upd.v_bc = mesh_.v_bc; upd.mass = mesh_.mass; upd.bc = mesh_.bc;
+    upd.gravity = opt_.gravity;
+    upd.damping = opt_.damping;
+    upd.dt_kick = 0.5 * (dt_prev_ + dt);
+    upd.dt = dt;
+    Kokkos::parallel_for("tamp::fem::nodes", Kokkos::RangePolicy<ExecSpace>(0, mesh_.n_nodes), upd);
+    element_pass(dt, upd.dt_kick);
+    dt_prev_ = dt;
+    time_ += dt;
+    ++steps_;
+  }
+
+  void advance_to(double t_end) {
+    while (time_ < t_end) {
+      const double dt = opt_.cfl * stable_dt();
+      step(time_ + dt > t_end ? t_end - time_ : dt);
+    }
+  }
+
+  FemEnergies energies() const { return energy_sums(mesh_); }
+
+  // Three plain sums (portable between Kokkos 3.4 and 4.x without a custom reducer).
+  static FemEnergies energy_sums(const FemMesh& mesh) {
+    auto v = mesh.v; auto m = mesh.mass;
+    auto ui = mesh.internal_energy; auto uh = mesh.hourglass_energy;
+    FemEnergies e;
+    Kokkos::parallel_reduce("tamp::fem::kinetic", Kokkos::RangePolicy<ExecSpace>(0, mesh.n_nodes),
+        KOKKOS_LAMBDA(int i, double& s) { s += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1)); },
+        e.kinetic);
+    Kokkos::parallel_reduce("tamp::fem::internal", Kokkos::RangePolicy<ExecSpace>(0, mesh.n_elements),
+        KOKKOS_LAMBDA(int k, double& s) { s += ui(k); }, e.internal);
+    Kokkos::parallel_reduce("tamp::fem::hourglass", Kokkos::RangePolicy<ExecSpace>(0, mesh.n_elements),
+        KOKKOS_LAMBDA(int k, double& s) { s += uh(k); }, e.hourglass);
+    return e;
+  }
+
+ private:
+  void element_pass(double dt, double dt_kick) {
+    QuadElementPass pass;
+    pass.x = mesh_.x; pass.v = mesh_.v; pass.conn = mesh_.conn;
+    pass.material = mesh_.material; pass.materials = mesh_.materials;
+    pass.stress = mesh_.stress; pass.strain_rate = mesh_.strain_rate;
+    pass.plastic_strain = mesh_.plastic_strain; pass.elem_mass = mesh_.elem_mass;
+    pass.volume = mesh_.volume; pass.internal_energy = mesh_.internal_energy;
+    pass.hourglass_energy = mesh_.hourglass_energy;
+    pass.hourglass_force = mesh_.hourglass_force;
+    pass.f_scatter = scatter_;
+    pass.dt = dt;
+    pass.dt_kick = dt_kick;
+    pass.hourglass_form = opt_.hourglass;
+    pass.hourglass_coef = opt_.hourglass_coefficient;
+    Kokkos::deep_copy(mesh_.f_int, 0.0);
+    scatter_.reset();
+    double dt_min = 1e300;
+    Kokkos::parallel_reduce("tamp::fem::elements",
+                            Kokkos::RangePolicy<ExecSpace>(0, mesh_.n_elements), pass,
+                            Kokkos::Min<double>(dt_min));
+    Kokkos::Experimental::contribute(mesh_.f_int, scatter_);
+    if (!(dt_min > 0))
+      throw std::runtime_error("FemModel: inverted or degenerate element at t = " +
+                               std::to_string(time_));
+    stable_dt_ = dt_min;
+    forces_valid_ = true;
+  }
+
+  template <class B, class V>
+  static void apply_bc(B& bc_h, V& vbc_h, int n, int flags, double vr, double vz) {
+    bc_h(n) |= flags;
+    if (flags & BC_R) vbc_h(n, 0) = vr;
+    if (flags & BC_Z) vbc_h(n, 1) = vz;
+  }
+
+  FemBlock block_;
+  FemOptions opt_;
+  FemMesh mesh_;
+  ForceScatter scatter_;
+  double density_ = 0;
+  double time_ = 0, dt_prev_ = 0, stable_dt_ = 0;
+  long steps_ = 0;
+  bool forces_valid_ = false;
+};
+
+}  // namespace tamp::fem

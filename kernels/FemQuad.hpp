@@ -1,0 +1,320 @@
+// Axisymmetric 4-node quadrilateral, explicit (central difference), one-point (mean)
+// quadrature with Flanagan-Belytschko hourglass control. Header-only; every kernel is a
+// functor, callable on every back end. Equations, choices and verification: docs/fem.md.
+//
+// Conventions: coordinates (r, z), r >= 0; stress (rr, zz, tt, rz), tension positive;
+// element nodes counter-clockwise in the (r, z) plane (r to the right, z up). Every
+// nodal quantity is that of a ring of revolution: masses in kg, forces in N (the whole
+// ring), element volumes are ring volumes (m3).
+#pragma once
+#include <Kokkos_Core.hpp>
+#include <Kokkos_ScatterView.hpp>
+#include <utility>
+
+#include "core/Material.hpp"
+#include "core/Types.hpp"
+#include "models/StressUpdate.hpp"
+
+namespace tamp::fem {
+
+// Nodal boundary flags: the r and/or z velocity component is prescribed (FemMesh::v_bc).
+enum NodeBc : int { BC_NONE = 0, BC_R = 1, BC_Z = 2 };
+
+enum HourglassForm : int {
+  HOURGLASS_VISCOUS = 0,    // force proportional to the hourglass velocity (LS-DYNA IHQ 2-like)
+  HOURGLASS_STIFFNESS = 1,  // incremental elastic hourglass force (LS-DYNA IHQ 4-like)
+};
+
+// Race-free nodal assembly: duplicated per thread on the host back ends, atomic on GPUs.
+using ForceScatter =
+    decltype(Kokkos::Experimental::create_scatter_view(std::declval<ViewN<double, 2>>()));
+
+// The mesh and its state, all in device views.
+struct FemMesh {
+  int n_nodes = 0, n_elements = 0;
+  // nodes
+  ViewN<double, 2> x;       // current coordinates (r, z), m
+  ViewN<double, 2> x0;      // reference coordinates, m
+  ViewN<double, 2> v;       // velocity at the last half step, m/s
+  ViewN<double, 2> f_int;   // internal force (stress divergence + hourglass), N
+  ViewN<double, 2> f_ext;   // applied external force (set by the user), N
+  ViewN<double, 2> v_bc;    // prescribed velocity of the flagged components, m/s
+  View1<double> mass;       // lumped ring mass, kg
+  View1<int> bc;            // NodeBc flags
+  // elements
+  Kokkos::View<int* [4], MemSpace> conn;  // node ids, counter-clockwise
+  View1<int> material;                    // index into the material table
+  ViewN<double, 4> stress;                // Pa (rr, zz, tt, rz)
+  ViewN<double, 4> strain_rate;           // last step's rate of deformation, 1/s
+  View1<double> plastic_strain;           // accumulated equivalent plastic strain
+  View1<double> elem_mass;                // rho0 V0, kg (constant)
+  View1<double> volume;                   // current ring volume, m3
+  ViewN<double, 2> hourglass_force;       // generalised hourglass force Q (r, z), N
+  View1<double> internal_energy;          // work of the stress, J
+  View1<double> hourglass_energy;         // work of the hourglass forces, J
+  Kokkos::View<MaterialParams*, MemSpace> materials;
+};
+
+// ---------------------------------------------------------------------------------------
+// Element geometry: volume-averaged ("mean") gradient operator over the ring volume.
+//   V     = 2 pi Int r dA
+//   br_I  = (1/V) Int dN_I/dr dV,  bz_I = (1/V) Int dN_I/dz dV,  bt_I = (1/V) Int N_I/r dV
+// with dV = 2 pi r dA. All three integrands times det J are polynomials of degree <= 2 in
+// each of xi, eta, so 2x2 Gauss points integrate them exactly on any convex quad.
+struct QuadGeometry {
+  double volume = 0;  // ring volume, m3
+  double area = 0;    // meridian area, m2
+  double br[4] = {0, 0, 0, 0}, bz[4] = {0, 0, 0, 0}, bt[4] = {0, 0, 0, 0};  // 1/m
+};
+
+// Shape function derivatives of the bilinear quad at (xi, eta); node order (-,-), (+,-),
+// (+,+), (-,+).
+KOKKOS_INLINE_FUNCTION void quad_shape(double xi, double eta, double N[4], double dxi[4],
+                                       double deta[4]) {
+  const double xs[4] = {-1, 1, 1, -1}, es[4] = {-1, -1, 1, 1};
+  for (int k = 0; k < 4; ++k) {
+    N[k] = 0.25 * (1 + xs[k] * xi) * (1 + es[k] * eta);
+    dxi[k] = 0.25 * xs[k] * (1 + es[k] * eta);
+    deta[k] = 0.25 * es[k] * (1 + xs[k] * xi);
+  }
+}
+
+// Returns false for a degenerate or inverted element (det J <= 0 at a Gauss point).
+KOKKOS_INLINE_FUNCTION bool quad_geometry(const double r[4], const double z[4], QuadGeometry& g) {
+  const double gp = 0.57735026918962576451;  // 1/sqrt(3)
+  const double pts[2] = {-gp, gp};
+  double V = 0, A = 0;
+  double br[4] = {0, 0, 0, 0}, bz[4] = {0, 0, 0, 0}, bt[4] = {0, 0, 0, 0};
+  bool ok = true;
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      double N[4], dxi[4], deta[4];
+      quad_shape(pts[a], pts[b], N, dxi, deta);
+      double r_xi = 0, r_eta = 0, z_xi = 0, z_eta = 0, rp = 0;
+      for (int k = 0; k < 4; ++k) {
+        r_xi += dxi[k] * r[k]; r_eta += deta[k] * r[k];
+        z_xi += dxi[k] * z[k]; z_eta += deta[k] * z[k];
+        rp += N[k] * r[k];
+      }
+      const double detJ = r_xi * z_eta - z_xi * r_eta;
+      if (!(detJ > 0)) ok = false;
+      A += detJ;
+      const double w = 2.0 * pi * rp;  // dV = w detJ dxi deta
+      V += w * detJ;
+      for (int k = 0; k < 4; ++k) {
+        // dN/dr detJ = z_eta dN/dxi - z_xi dN/deta; dN/dz detJ = r_xi dN/deta - r_eta dN/dxi
+        br[k] += w * (z_eta * dxi[k] - z_xi * deta[k]);
+        bz[k] += w * (r_xi * deta[k] - r_eta * dxi[k]);
+        bt[k] += 2.0 * pi * N[k] * detJ;
+      }
+    }
+  g.volume = V;
+  g.area = A;
+  if (!(V > 0)) return false;
+  const double inv = 1.0 / V;
+  for (int k = 0; k < 4; ++k) {
+    g.br[k] = br[k] * inv;
+    g.bz[k] = bz[k] * inv;
+    g.bt[k] = bt[k] * inv;
+  }
+  return ok;
+}
+
+// Row sums of the consistent ring-mass matrix per unit density: w_I = Int N_I 2 pi r dA
+// (exact with 2x2 Gauss; sum_I w_I = V). Nonzero on the axis.
+KOKKOS_INLINE_FUNCTION void quad_mass_weights(const double r[4], const double z[4], double w[4]) {
+  const double gp = 0.57735026918962576451;
+  const double pts[2] = {-gp, gp};
+  for (int k = 0; k < 4; ++k) w[k] = 0;
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      double N[4], dxi[4], deta[4];
+      quad_shape(pts[a], pts[b], N, dxi, deta);
+      double r_xi = 0, r_eta = 0, z_xi = 0, z_eta = 0, rp = 0;
+      for (int k = 0; k < 4; ++k) {
+        r_xi += dxi[k] * r[k]; r_eta += deta[k] * r[k];
+        z_xi += dxi[k] * z[k]; z_eta += deta[k] * z[k];
+        rp += N[k] * r[k];
+      }
+      const double detJ = r_xi * z_eta - z_xi * r_eta;
+      for (int k = 0; k < 4; ++k) w[k] += 2.0 * pi * rp * N[k] * detJ;
+    }
+}
+
+// Stable-step length of an element: L = 1 / sqrt(sum_I br_I^2 + bz_I^2 + bt_I^2); the
+// lumped-mass element's highest frequency is bounded by 2 c / L (docs/fem.md).
+KOKKOS_INLINE_FUNCTION double quad_stable_length(const QuadGeometry& g) {
+  double s = 0;
+  for (int k = 0; k < 4; ++k) s += g.br[k] * g.br[k] + g.bz[k] * g.bz[k] + g.bt[k] * g.bt[k];
+  return 1.0 / math::sqrt(s);
+}
+
+// Flanagan-Belytschko hourglass shape vector: gamma = (h - (h.r) br - (h.z) bz) / 4,
+// h = (1, -1, 1, -1). Orthogonal to every linear field: sum_I gamma_I (a + b r_I + c z_I) = 0.
+KOKKOS_INLINE_FUNCTION void quad_hourglass_gamma(const double r[4], const double z[4],
+                                                 const QuadGeometry& g, double gamma[4]) {
+  const double h[4] = {1, -1, 1, -1};
+  double hr = 0, hz = 0;
+  for (int k = 0; k < 4; ++k) { hr += h[k] * r[k]; hz += h[k] * z[k]; }
+  for (int k = 0; k < 4; ++k) gamma[k] = 0.25 * (h[k] - hr * g.br[k] - hz * g.bz[k]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Node update, the first half of a central-difference step (x holds x^n, v holds
+// v^{n-1/2}, f_int holds f_int(x^n)):
+//   a^n        = (f_ext - f_int) / m - g e_z
+//   v^{n+1/2}  = [(1 - zeta dt_kick/2) v^{n-1/2} + dt_kick a^n] / (1 + zeta dt_kick/2)
+//   (prescribed components are then overwritten by v_bc)
+//   x^{n+1}    = x^n + dt v^{n+1/2}
+// dt_kick = (dt^{n-1/2} + dt^{n+1/2}) / 2 (dt/2 on the first step), zeta = mass damping.
+struct QuadNodeUpdate {
+  ViewN<double, 2> x, v, f_int, f_ext, v_bc;
+  View1<double> mass;
+  View1<int> bc;
+  double gravity = 0, damping = 0, dt_kick = 0, dt = 0;
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    const double inv_m = 1.0 / mass(i);
+    const double a_r = (f_ext(i, 0) - f_int(i, 0)) * inv_m;
+    const double a_z = (f_ext(i, 1) - f_int(i, 1)) * inv_m - gravity;
+    const double c0 = 1.0 - 0.5 * damping * dt_kick, c1 = 1.0 / (1.0 + 0.5 * damping * dt_kick);
+    double vr = (c0 * v(i, 0) + dt_kick * a_r) * c1;
+    double vz = (c0 * v(i, 1) + dt_kick * a_z) * c1;
+    const int flags = bc(i);
+    if (flags & BC_R) vr = v_bc(i, 0);
+    if (flags & BC_Z) vz = v_bc(i, 1);
+    v(i, 0) = vr;
+    v(i, 1) = vz;
+    x(i, 0) += dt * vr;
+    x(i, 1) += dt * vz;
+  }
+};
+
+// Element pass, the second half of a step (x holds x^{n+1}, v holds v^{n+1/2}):
+//   mid configuration x^{n+1/2} = x^{n+1} - dt/2 v:  D = B(x^{n+1/2}) v,  spin W_rz
+//   sigma^{n+1} = update_stress(sigma^n, D dt, W_rz dt)                 (models.md)
+//   internal energy += V^{n+1/2} (sigma^n + sigma^{n+1})/2 : D dt
+//   f_int,I = V^{n+1} B_I(x^{n+1})^T sigma^{n+1} + Q gamma_I            (hourglass)
+// Reduces the smallest stable step L / c over the elements (0 for an inverted element).
+// With dt = 0 it only re-evaluates the forces of the current stress.
+struct QuadElementPass {
+  ViewN<double, 2> x, v;
+  Kokkos::View<int* [4], MemSpace> conn;
+  View1<int> material;
+  Kokkos::View<MaterialParams*, MemSpace> materials;
+  ViewN<double, 4> stress, strain_rate;
+  View1<double> plastic_strain, elem_mass, volume, internal_energy, hourglass_energy;
+  ViewN<double, 2> hourglass_force;
+  ForceScatter f_scatter;
+  double dt = 0;       // this step, x^n -> x^{n+1}
+  double dt_kick = 0;  // the kick that preceded this pass (QuadNodeUpdate::dt_kick)
+  int hourglass_form = HOURGLASS_STIFFNESS;
+  double hourglass_coef = 0.1;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int e, double& dt_min) const {
+    int n[4];
+    double r[4], z[4], vr[4], vz[4];
+    for (int k = 0; k < 4; ++k) {
+      n[k] = conn(e, k);
+      vr[k] = v(n[k], 0);
+      vz[k] = v(n[k], 1);
+      r[k] = x(n[k], 0);
+      z[k] = x(n[k], 1);
+    }
+    const MaterialParams& m = materials(material(e));
+    bool ok = true;
+
+    // Strain increment and spin at the mid-step configuration.
+    if (dt > 0) {
+      double rm[4], zm[4];
+      for (int k = 0; k < 4; ++k) {
+        rm[k] = r[k] - 0.5 * dt * vr[k];
+        zm[k] = z[k] - 0.5 * dt * vz[k];
+      }
+      QuadGeometry gm;
+      ok = quad_geometry(rm, zm, gm) && ok;
+      double d_rr = 0, d_zz = 0, d_tt = 0, l_rz = 0, l_zr = 0;
+      for (int k = 0; k < 4; ++k) {
+        d_rr += gm.br[k] * vr[k];
+        d_zz += gm.bz[k] * vz[k];
+        d_tt += gm.bt[k] * vr[k];
+        l_rz += gm.bz[k] * vr[k];  // dv_r/dz
+        l_zr += gm.br[k] * vz[k];  // dv_z/dr
+      }
+      const double d_rz = 0.5 * (l_rz + l_zr);
+      const double deps[4] = {d_rr * dt, d_zz * dt, d_tt * dt, d_rz * dt};
+      double s[4], s_old[4];
+      for (int c = 0; c < 4; ++c) s[c] = s_old[c] = stress(e, c);
+      double ep = plastic_strain(e);
+      update_stress(m, s, deps, 0.5 * (l_rz - l_zr) * dt, ep);
+      double work = 0;
+      for (int c = 0; c < 3; ++c) work += 0.5 * (s_old[c] + s[c]) * deps[c];
+      work += (s_old[RZ] + s[RZ]) * deps[RZ];
+      internal_energy(e) += gm.volume * work;
+      for (int c = 0; c < 4; ++c) stress(e, c) = s[c];
+      plastic_strain(e) = ep;
+      strain_rate(e, RR) = d_rr;
+      strain_rate(e, ZZ) = d_zz;
+      strain_rate(e, TT) = d_tt;
+      strain_rate(e, RZ) = d_rz;
+    }
+
+    // Forces at the end-of-step configuration.
+    QuadGeometry g;
+    ok = quad_geometry(r, z, g) && ok;
+    volume(e) = g.volume;
+    const double s_rr = stress(e, RR), s_zz = stress(e, ZZ), s_tt = stress(e, TT),
+                 s_rz = stress(e, RZ);
+    double fr[4], fz[4];
+    for (int k = 0; k < 4; ++k) {
+      fr[k] = g.volume * (g.br[k] * s_rr + g.bz[k] * s_rz + g.bt[k] * s_tt);
+      fz[k] = g.volume * (g.br[k] * s_rz + g.bz[k] * s_zz);
+    }
+
+    // Hourglass control (Flanagan & Belytschko 1981), volume weighted.
+    double gamma[4];
+    quad_hourglass_gamma(r, z, g, gamma);
+    double q_r = 0, q_z = 0, bb = 0;
+    for (int k = 0; k < 4; ++k) {
+      q_r += gamma[k] * vr[k];
+      q_z += gamma[k] * vz[k];
+      bb += g.br[k] * g.br[k] + g.bz[k] * g.bz[k];
+    }
+    const double rho = elem_mass(e) / g.volume;
+    const double M = m.p_wave_modulus();
+    double Q_r = 0, Q_z = 0;
+    if (hourglass_form == HOURGLASS_VISCOUS) {
+      const double c = math::sqrt(M / rho);
+      const double C = hourglass_coef * rho * c * g.volume * math::sqrt(2.0 * bb);
+      // Work of the previous force Q^n over the kick that just used it, with the centred
+      // rate (q^{n-1/2} + q^{n+1/2}) / 2, q^{n-1/2} = Q^n / C (docs/fem.md).
+      const double Q0_r = hourglass_force(e, 0), Q0_z = hourglass_force(e, 1);
+      if (C > 0)
+        hourglass_energy(e) +=
+            0.5 * dt_kick * (Q0_r * (Q0_r / C + q_r) + Q0_z * (Q0_z / C + q_z));
+      Q_r = C * q_r;
+      Q_z = C * q_z;
+      hourglass_force(e, 0) = Q_r;
+      hourglass_force(e, 1) = Q_z;
+    } else {
+      const double C = 0.5 * hourglass_coef * M * g.volume * bb;
+      const double Q0_r = hourglass_force(e, 0), Q0_z = hourglass_force(e, 1);
+      Q_r = Q0_r + C * q_r * dt;
+      Q_z = Q0_z + C * q_z * dt;
+      hourglass_force(e, 0) = Q_r;
+      hourglass_force(e, 1) = Q_z;
+      hourglass_energy(e) += 0.5 * ((Q0_r + Q_r) * q_r + (Q0_z + Q_z) * q_z) * dt;
+    }
+    auto f = f_scatter.access();
+    for (int k = 0; k < 4; ++k) {
+      f(n[k], 0) += fr[k] + Q_r * gamma[k];
+      f(n[k], 1) += fz[k] + Q_z * gamma[k];
+    }
+
+    double dt_e = 0;
+    if (ok) dt_e = quad_stable_length(g) / math::sqrt(M / rho);
+    if (!(dt_e == dt_e)) dt_e = 0;
+    dt_min = math::min(dt_min, dt_e);
+  }
+};
+
+}  // namespace tamp::fem

@@ -244,6 +244,26 @@ void write_text_atomically(const std::string& path, const std::string& text) {
   if (ec) throw std::runtime_error(path + ": cannot replace the file (" + ec.message() + ")");
 }
 
+// Writes an HDF5 file through `fill(file)` into path.tmp, then renames it over path, so a
+// reader never sees a half-written file; the temporary is removed on failure.
+template <class Fill>
+void write_h5_atomically(const std::string& path, Fill&& fill) {
+  const QuietErrors quiet;
+  const std::string tmp = path + ".tmp";
+  try {
+    Handle file = create_file(tmp, path);
+    fill(file);
+    file.close(path + ": cannot close the HDF5 file");
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw;
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw std::runtime_error(path + ": cannot replace the file (" + ec.message() + ")");
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- snapshots
@@ -255,38 +275,25 @@ void ParticleSnapshot::resize(std::size_t n) {
 
 void write_snapshot_h5(const std::string& path, const ParticleSnapshot& s) {
   check_sizes(s, path);
-  const QuietErrors quiet;
-  const std::string tmp = path + ".tmp";
   const hsize_t n = s.size();
-  try {
-    Handle file = create_file(tmp, path);
-    {
-      const Handle group = create_group(file, "/particles", path);
-      const long long step = s.step;
-      write_scalar_attribute(group, "step", H5T_STD_I64LE, H5T_NATIVE_LLONG, &step, path);
-      write_scalar_attribute(group, "time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &s.time, path);
-      for (const auto& f : kDoubleFields)
-        write_dataset(group, f.name, {n}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (s.*f.member).data(), f.units,
-                      path);
-      write_dataset(group, kMaterialField, {n}, H5T_STD_I32LE, H5T_NATIVE_INT, s.material.data(), "1", path);
+  write_h5_atomically(path, [&](Handle& file) {
+    const Handle group = create_group(file, "/particles", path);
+    const long long step = s.step;
+    write_scalar_attribute(group, "step", H5T_STD_I64LE, H5T_NATIVE_LLONG, &step, path);
+    write_scalar_attribute(group, "time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &s.time, path);
+    for (const auto& f : kDoubleFields)
+      write_dataset(group, f.name, {n}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (s.*f.member).data(), f.units,
+                    path);
+    write_dataset(group, kMaterialField, {n}, H5T_STD_I32LE, H5T_NATIVE_INT, s.material.data(), "1", path);
 
-      std::vector<double> xyz(3 * s.size());
-      for (std::size_t i = 0; i < s.size(); ++i) {
-        xyz[3 * i + 0] = s.r[i];
-        xyz[3 * i + 1] = s.z[i];
-        xyz[3 * i + 2] = 0.0;
-      }
-      write_dataset(group, "coordinates", {n, 3}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, xyz.data(), "m", path);
+    std::vector<double> xyz(3 * s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      xyz[3 * i + 0] = s.r[i];
+      xyz[3 * i + 1] = s.z[i];
+      xyz[3 * i + 2] = 0.0;
     }
-    file.close(path + ": cannot close the HDF5 file");
-  } catch (...) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw;
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw std::runtime_error(path + ": cannot replace the file (" + ec.message() + ")");
+    write_dataset(group, "coordinates", {n, 3}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, xyz.data(), "m", path);
+  });
 }
 
 ParticleSnapshot read_snapshot_h5(const std::string& path) {
@@ -446,40 +453,27 @@ void read_table(const Handle& group, const std::string& name, hid_t mem_type, st
 }  // namespace
 
 void write_checkpoint_h5(const std::string& path, const Checkpoint& c) {
-  const QuietErrors quiet;
-  const std::string tmp = path + ".tmp";
-  try {
-    Handle file = create_file(tmp, path);
-    {
-      const Handle group = create_group(file, "/checkpoint", path);
-      std::vector<std::string> real_names, int_names, scalar_names;
-      for (const auto& [name, a] : c.reals) {
-        const hsize_t w = static_cast<hsize_t>(a.width), n = a.values.size() / w;
-        write_dataset(group, name, {n, w}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, a.values.data(), "SI", path);
-        real_names.push_back(name);
-      }
-      for (const auto& [name, a] : c.ints) {
-        const hsize_t w = static_cast<hsize_t>(a.width), n = a.values.size() / w;
-        write_dataset(group, name, {n, w}, H5T_STD_I32LE, H5T_NATIVE_INT, a.values.data(), "1", path);
-        int_names.push_back(name);
-      }
-      for (const auto& [name, v] : c.scalars) {
-        write_scalar_attribute(group, name.c_str(), H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &v, path);
-        scalar_names.push_back(name);
-      }
-      write_string_attribute(group, "real_fields", join_names(real_names), path);
-      write_string_attribute(group, "int_fields", join_names(int_names), path);
-      write_string_attribute(group, "scalars", join_names(scalar_names), path);
+  write_h5_atomically(path, [&](Handle& file) {
+    const Handle group = create_group(file, "/checkpoint", path);
+    std::vector<std::string> real_names, int_names, scalar_names;
+    for (const auto& [name, a] : c.reals) {
+      const hsize_t w = static_cast<hsize_t>(a.width), n = a.values.size() / w;
+      write_dataset(group, name, {n, w}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, a.values.data(), "SI", path);
+      real_names.push_back(name);
     }
-    file.close(path + ": cannot close the HDF5 file");
-  } catch (...) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw;
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw std::runtime_error(path + ": cannot replace the file (" + ec.message() + ")");
+    for (const auto& [name, a] : c.ints) {
+      const hsize_t w = static_cast<hsize_t>(a.width), n = a.values.size() / w;
+      write_dataset(group, name, {n, w}, H5T_STD_I32LE, H5T_NATIVE_INT, a.values.data(), "1", path);
+      int_names.push_back(name);
+    }
+    for (const auto& [name, v] : c.scalars) {
+      write_scalar_attribute(group, name.c_str(), H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &v, path);
+      scalar_names.push_back(name);
+    }
+    write_string_attribute(group, "real_fields", join_names(real_names), path);
+    write_string_attribute(group, "int_fields", join_names(int_names), path);
+    write_string_attribute(group, "scalars", join_names(scalar_names), path);
+  });
 }
 
 Checkpoint read_checkpoint_h5(const std::string& path) {

@@ -79,6 +79,24 @@ KOKKOS_INLINE_FUNCTION void quad_shape(double xi, double eta, double N[4], doubl
   }
 }
 
+// Shape functions, isoparametric derivatives, Jacobian terms and radius at (xi, eta).
+struct QuadPoint {
+  double N[4], dxi[4], deta[4];
+  double r_xi, r_eta, z_xi, z_eta, rp, detJ;
+};
+KOKKOS_INLINE_FUNCTION QuadPoint quad_point(double xi, double eta, const double r[4], const double z[4]) {
+  QuadPoint q;
+  quad_shape(xi, eta, q.N, q.dxi, q.deta);
+  q.r_xi = q.r_eta = q.z_xi = q.z_eta = q.rp = 0;
+  for (int k = 0; k < 4; ++k) {
+    q.r_xi += q.dxi[k] * r[k]; q.r_eta += q.deta[k] * r[k];
+    q.z_xi += q.dxi[k] * z[k]; q.z_eta += q.deta[k] * z[k];
+    q.rp += q.N[k] * r[k];
+  }
+  q.detJ = q.r_xi * q.z_eta - q.z_xi * q.r_eta;
+  return q;
+}
+
 // Returns false for a degenerate or inverted element (det J <= 0 at a Gauss point).
 KOKKOS_INLINE_FUNCTION bool quad_geometry(const double r[4], const double z[4], QuadGeometry& g) {
   const double gp = 0.57735026918962576451;  // 1/sqrt(3)
@@ -88,15 +106,9 @@ KOKKOS_INLINE_FUNCTION bool quad_geometry(const double r[4], const double z[4], 
   bool ok = true;
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
-      double N[4], dxi[4], deta[4];
-      quad_shape(pts[a], pts[b], N, dxi, deta);
-      double r_xi = 0, r_eta = 0, z_xi = 0, z_eta = 0, rp = 0;
-      for (int k = 0; k < 4; ++k) {
-        r_xi += dxi[k] * r[k]; r_eta += deta[k] * r[k];
-        z_xi += dxi[k] * z[k]; z_eta += deta[k] * z[k];
-        rp += N[k] * r[k];
-      }
-      const double detJ = r_xi * z_eta - z_xi * r_eta;
+      const QuadPoint q = quad_point(pts[a], pts[b], r, z);
+      const double *N = q.N, *dxi = q.dxi, *deta = q.deta;
+      const double r_xi = q.r_xi, r_eta = q.r_eta, z_xi = q.z_xi, z_eta = q.z_eta, rp = q.rp, detJ = q.detJ;
       if (!(detJ > 0)) ok = false;
       A += detJ;
       const double w = 2.0 * pi * rp;  // dV = w detJ dxi deta
@@ -128,15 +140,9 @@ KOKKOS_INLINE_FUNCTION void quad_mass_weights(const double r[4], const double z[
   for (int k = 0; k < 4; ++k) w[k] = 0;
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
-      double N[4], dxi[4], deta[4];
-      quad_shape(pts[a], pts[b], N, dxi, deta);
-      double r_xi = 0, r_eta = 0, z_xi = 0, z_eta = 0, rp = 0;
-      for (int k = 0; k < 4; ++k) {
-        r_xi += dxi[k] * r[k]; r_eta += deta[k] * r[k];
-        z_xi += dxi[k] * z[k]; z_eta += deta[k] * z[k];
-        rp += N[k] * r[k];
-      }
-      const double detJ = r_xi * z_eta - z_xi * r_eta;
+      const QuadPoint q = quad_point(pts[a], pts[b], r, z);
+      const double *N = q.N, *dxi = q.dxi, *deta = q.deta;
+      const double r_xi = q.r_xi, r_eta = q.r_eta, z_xi = q.z_xi, z_eta = q.z_eta, rp = q.rp, detJ = q.detJ;
       for (int k = 0; k < 4; ++k) w[k] += 2.0 * pi * rp * N[k] * detJ;
     }
 }

@@ -70,6 +70,8 @@ struct Config {
   double gravity = 9.81;          // m/s2, acting in -z
   double damping = 0.0;           // 1/s, mass-proportional damping (dynamic relaxation)
   double gravity_ramp = 0.0;      // s: gravity grows linearly from 0 over this time (0 = at once)
+  std::string initial_stress = "zero"; // "zero" | "geostatic" (K0 = nu/(1-nu) for layered
+                                       // blocks, then dynamic relaxation)
   std::vector<MaterialSpec> materials;
   std::vector<BlockSpec> blocks;
   WallSpec bottom, top, outer;    // the axis r = 0 is always a symmetry line

@@ -521,10 +521,12 @@ Config build(const toml::table& root, const std::string& label) {
   const Reporter rep(label);
   Config cfg;
   cfg.source_file = label;
-  const Table top(rep, root, "", {"run", "sph", "gravity", "damping", "gravity_ramp", "materials", "blocks", "boundaries"});
+  const Table top(rep, root, "", {"run", "sph", "gravity", "damping", "gravity_ramp", "initial_stress", "materials",
+                                         "blocks", "boundaries"});
   cfg.gravity = number(top, "gravity", cfg.gravity, ge(0), "m/s2");
   cfg.damping = number(top, "damping", cfg.damping, ge(0), "1/s");
   cfg.gravity_ramp = number(top, "gravity_ramp", cfg.gravity_ramp, ge(0), "s");
+  cfg.initial_stress = choice(top, "initial_stress", {"zero", "geostatic"}, "initial stress", cfg.initial_stress);
   read_run(top, cfg.run);
   read_sph(top, cfg.sph);
 
@@ -607,7 +609,8 @@ std::string to_toml(const Config& c) {
   o << "\n# SI units; gravity acts in -z; r >= 0 is the radial coordinate.\n\n";
   o << "gravity = " << fmt_float(c.gravity) << "  # m/s2\n";
   o << "damping = " << fmt_float(c.damping) << "  # 1/s\n";
-  o << "gravity_ramp = " << fmt_float(c.gravity_ramp) << "  # s\n\n";
+  o << "gravity_ramp = " << fmt_float(c.gravity_ramp) << "  # s\n";
+  o << "initial_stress = " << quote(c.initial_stress) << "\n\n";
 
   o << "[run]\n";
   o << "name = " << quote(c.run.name) << "\n";

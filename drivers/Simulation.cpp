@@ -54,8 +54,12 @@ Simulation::Simulation(const Config& config) : config_(config) {
   ensure_pair_storage();
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
                        PairKernelFactors{particles_.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
-  update_pair_stress();
-  compute_acceleration();
+  if (config_.initial_stress == "geostatic") {
+    set_geostatic_stress();  // also updates the pair stress and the accelerations
+  } else {
+    update_pair_stress();
+    compute_acceleration();
+  }
 }
 
 void Simulation::ensure_pair_storage() {

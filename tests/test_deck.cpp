@@ -129,6 +129,7 @@ void require_same(const Config& a, const Config& b) {
   CHECK(a.gravity == b.gravity);
   CHECK(a.damping == b.damping);
   CHECK(a.gravity_ramp == b.gravity_ramp);
+  CHECK(a.initial_stress == b.initial_stress);
   REQUIRE(a.materials.size() == b.materials.size());
   for (std::size_t i = 0; i < a.materials.size(); ++i) {
     const auto& x = a.materials[i];
@@ -538,4 +539,13 @@ TEST_CASE("Deck: non-reflecting boundaries parse and round-trip", "[deck]") {
   CHECK(d.outer.position == 1.0);
   p.rest = "[boundaries]\nouter = { type = \"absorbing\", r = 1.0 }\n";
   require_error(p.text(), {"deck.toml", "boundaries.outer.type", "absorbing", "non-reflecting"});
+}
+
+TEST_CASE("Deck: initial_stress takes zero or geostatic", "[deck]") {
+  Parts p;
+  p.top = "initial_stress = \"geostatic\"\n";
+  CHECK(parse_deck(p.text(), "deck.toml").initial_stress == "geostatic");
+  CHECK(parse_deck(Parts{}.text(), "deck.toml").initial_stress == "zero");
+  p.top = "initial_stress = \"k0\"\n";
+  require_error(p.text(), {"deck.toml", "initial_stress", "k0", "geostatic"});
 }

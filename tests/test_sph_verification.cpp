@@ -221,3 +221,34 @@ TEST_CASE("SPH: elastic block free vibration conserves energy", "[sph][verificat
               sim.steps(), e.kinetic, e.internal, 100 * (e.total() / e0 - 1), 100 * worst);
   CHECK(worst < 0.01);
 }
+
+TEST_CASE("SPH: geostatic initial stress of layered blocks", "[sph]") {
+  // initial_stress = "geostatic": sigma_zz is minus the weight per area of the blocks
+  // above each particle, sigma_h = nu/(1-nu) sigma_zz of the particle's material. Exact
+  // arithmetic: tolerance 1e-12 relative.
+  Config cfg = column_config(0.05, 0.4, 0.01);
+  cfg.gravity = 9.81;
+  cfg.initial_stress = "geostatic";
+  MaterialSpec sand = lab_clay_elastic();
+  sand.name = "sand";
+  sand.density = 18.0e3 / 9.81;
+  sand.poisson_ratio = 0.2;
+  cfg.materials.push_back(sand);
+  cfg.blocks[0].z_min = 0.2;  // clay 0.2-0.4 m over sand 0-0.2 m
+  BlockSpec lower = cfg.blocks[0];
+  lower.material = "sand";
+  lower.z_min = 0.0;
+  lower.z_max = 0.2;
+  cfg.blocks.push_back(lower);
+  Simulation sim(cfg);
+  const HostState s = host_state(sim);
+  double worst = 0;
+  for (size_t i = 0; i < s.r.size(); ++i) {
+    const double z = s.z[i];
+    const double sv = z >= 0.2 ? -18.7e3 * (0.4 - z) : -18.7e3 * 0.2 - 18.0e3 * (0.2 - z);
+    const double k0 = z >= 0.2 ? 0.31 / 0.69 : 0.2 / 0.8;
+    worst = std::max({worst, std::fabs(s.szz[i] / sv - 1), std::fabs(s.srr[i] / (k0 * sv) - 1),
+                      std::fabs(s.stt[i] / (k0 * sv) - 1)});
+  }
+  CHECK(worst < 1e-12);
+}

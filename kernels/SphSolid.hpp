@@ -56,20 +56,14 @@ struct StrainRateAndStress {
     const double vra = v(a, 0), vza = v(a, 1);
     const double r_reg = math::max(xa, p.r_min);
     const double inv_eta_a = 1.0 / (2.0 * pi * r_reg * rho(a));
-    const double support2 = 4.0 * p.h * p.h;
     double G00 = 0, G01 = 0, G10 = 0, G11 = 0;  // sum V_b (v_b - v_a)_i dW/dx_j
     double B00 = 0, B01 = 0, B10 = 0, B11 = 0;  // sum V_b (x_b - x_a)_i dW/dx_j
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
-      const double r2 = dr * dr + dz * dz;
-      if (r2 >= support2 || r2 <= 0.0) {  // listed within the Verlet skin, outside the kernel
-        pair_f(k) = 0.0;
-        continue;
-      }
-      const double r = math::sqrt(r2);
-      const double f = W.derivative(r) / r;
+      const double f = W.gradient_factor(dr * dr + dz * dz);
       pair_f(k) = f;  // grad_a W = f * (x_a - x_b); reused by the acceleration loop
+      if (f == 0.0) continue;  // listed within the Verlet skin, outside the kernel
       const double gr = f * dr, gz = f * dz;
       const double Vb = mass(b) * inv_eta_a;
       const double dvr = v(b, 0) - vra, dvz = v(b, 1) - vza;
@@ -237,8 +231,7 @@ struct PairKernelFactors {
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = x(a, 0) - x(b, 0), dz = x(a, 1) - x(b, 1);
-      const double r = math::sqrt(dr * dr + dz * dz);
-      pair_f(k) = (r >= 2.0 * h || r <= 0.0) ? 0.0 : W.derivative(r) / r;
+      pair_f(k) = W.gradient_factor(dr * dr + dz * dz);
     }
   }
 };

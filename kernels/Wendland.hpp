@@ -23,6 +23,14 @@ struct Wendland2D {
     const double t2 = t * t;
     return norm * t2 * t2 * (2.0 * q + 1.0);
   }
+  // (dW/dr) / r from the squared distance, so that grad_a W_ab = factor * (x_a - x_b);
+  // 0 outside the support and for coincident points. The one definition used by every
+  // pair loop (the strain-rate loop and its stand-alone twin must agree bit for bit).
+  KOKKOS_INLINE_FUNCTION double gradient_factor(double r2) const {
+    if (r2 >= 4.0 * h * h || r2 <= 0.0) return 0.0;
+    const double r = ::sqrt(r2);
+    return derivative(r) / r;
+  }
   // dW/dr (negative for 0 < r < 2h).
   KOKKOS_INLINE_FUNCTION double derivative(double r) const {
     const double q = r / h;

@@ -63,6 +63,59 @@ struct WallSpec {
   double position = 0;            // m: z of the bottom/top wall, r of the outer wall
 };
 
+// Pounder <-> particle contact (kernels/RigidContact.hpp, docs/contact.md).
+struct ContactSpec {
+  double static_friction = 0.5;   // FS
+  double dynamic_friction = 0.4;  // FD
+  double decay = 0.0;             // DC, s/m: mu = FD + (FS - FD) exp(-DC |v_t|)
+  double penalty_scale = 1.0;     // contact stiffness / (soil P-wave modulus per spacing)
+  double damping_ratio = 0.2;     // of the normal contact, -
+};
+
+// The rigid pounder: a barrel, radius growing from base_diameter/2 at the base and the top
+// to max_diameter/2 at mid-height along a parabola.
+struct PounderSpec {
+  double mass = 10.55;            // kg
+  double base_diameter = 0.090;   // m
+  double max_diameter = 0.100;    // m
+  double height = 0.200;          // m
+  int profile_segments = 16;      // straight pieces of the barrel side
+};
+
+// Aggregate charges poured into the crater after the blows listed in the schedule.
+struct BackfillSpec {
+  std::string material;           // name of a MaterialSpec ("" = no backfill)
+  std::string mode = "fill";      // "fill": up to the original ground level; "mass": a given mass
+  double mass = 1.0;              // kg per charge, mode "mass"
+  double radius = 0.0;            // m, fill inside this radius; 0 = pounder max radius + 2 spacings
+};
+
+// The staged drop sequence (drivers/DropSequence.hpp). enabled = the deck has [schedule].
+struct ScheduleSpec {
+  bool enabled = false;
+  std::vector<double> drop_heights;    // m, one per blow
+  std::vector<int> backfill_after;     // blow numbers (1-based) followed by a charge
+  std::string drop_height_from = "ground"; // "ground": release height above the original
+                                           // ground level; "surface": above the crater floor
+  double ground_level = 0.0;      // m, z of the original ground surface (0 = top of the blocks)
+  double relax_time = 0.2;        // s, damped relaxation before the first blow
+  double damping = 60.0;          // 1/s, mass-proportional damping of the rest/settle phases
+  double rest_speed = 0.05;       // m/s: the pounder is at rest below this speed ...
+  double rest_hold = 0.003;       // s: ... held for this long
+  double rest_time = 0.02;        // s of damped settling with the pounder in place
+  double max_impact_time = 0.3;   // s: an impact stage ends here even without rest
+  double extract_time = 0.01;     // s of damped settling after the pounder is lifted out
+  double settle_time = 0.03;      // s of damped settling after a charge
+  double tracer_interval = 0.001; // s of simulated time between tracer records
+};
+
+// A material point followed through the run (like the paper's Figs. 8 and 10): the
+// particle nearest to (r, z) at the start.
+struct TracerSpec {
+  std::string name;
+  double r = 0, z = 0;            // m
+};
+
 struct Config {
   std::string source_file;        // the deck this came from ("" when built in code)
   RunSpec run;
@@ -75,6 +128,11 @@ struct Config {
   std::vector<MaterialSpec> materials;
   std::vector<BlockSpec> blocks;
   WallSpec bottom, top, outer;    // the axis r = 0 is always a symmetry line
+  ContactSpec contact;
+  PounderSpec pounder;
+  BackfillSpec backfill;
+  ScheduleSpec schedule;
+  std::vector<TracerSpec> tracers;
 };
 
 }  // namespace tamp

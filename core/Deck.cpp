@@ -363,6 +363,46 @@ std::vector<const toml::table*> table_array(const Table& t, std::string_view key
   return out;
 }
 
+// A non-empty array of numbers, each in `range`.
+std::vector<double> number_array(const Table& t, std::string_view key, const Range& range,
+                                 std::string_view unit) {
+  const toml::node* n = t.find(key);
+  const std::string allowed = "a non-empty array of numbers, each " + range.text("value", unit);
+  if (!n) t.rep().missing(t.path(key), allowed);
+  const auto* a = n->as_array();
+  if (!a) t.rep().wrong_type(t.path(key), *n, allowed);
+  if (a->empty()) t.rep().bad(t.path(key), *n, "has no entries", allowed);
+  std::vector<double> out;
+  for (std::size_t j = 0; j < a->size(); ++j) {
+    const std::string p = t.path(key) + "[" + std::to_string(j) + "]";
+    const auto x = as_number(*a->get(j));
+    if (!x) t.rep().wrong_type(p, *a->get(j), allowed);
+    if (!range.contains(*x)) t.rep().out_of_range(p, *a->get(j), range.text("value", unit));
+    out.push_back(*x);
+  }
+  return out;
+}
+
+// An array of integers in [lo, hi], strictly increasing (may be empty).
+std::vector<int> increasing_int_array(const Table& t, std::string_view key, long long lo, long long hi) {
+  const toml::node* n = t.find(key);
+  const std::string allowed = "an array of increasing integers, each " + std::to_string(lo) +
+                              " <= value <= " + std::to_string(hi);
+  std::vector<int> out;
+  if (!n) return out;
+  const auto* a = n->as_array();
+  if (!a) t.rep().wrong_type(t.path(key), *n, allowed);
+  for (std::size_t j = 0; j < a->size(); ++j) {
+    const std::string p = t.path(key) + "[" + std::to_string(j) + "]";
+    const auto* i = a->get(j)->as_integer();
+    if (!i) t.rep().wrong_type(p, *a->get(j), allowed);
+    if (i->get() < lo || i->get() > hi || (!out.empty() && i->get() <= out.back()))
+      t.rep().out_of_range(p, *a->get(j), allowed);
+    out.push_back(static_cast<int>(i->get()));
+  }
+  return out;
+}
+
 // ---------------------------------------------------------------- sections
 
 void read_run(const Table& top, RunSpec& run) {
@@ -517,12 +557,101 @@ void read_boundaries(const Table& top, Config& cfg) {
                          "top.z > bottom.z (= " + fmt_num(cfg.bottom.position) + ") (m)");
 }
 
+void read_contact(const Table& top, ContactSpec& c) {
+  const toml::table* tt = sub_table(top, "contact");
+  if (!tt) return;
+  const Table t(top.rep(), *tt, "contact",
+                {"static_friction", "dynamic_friction", "decay", "penalty_scale", "damping_ratio"});
+  c.static_friction = number(t, "static_friction", c.static_friction, ge(0), "");
+  c.dynamic_friction = number(t, "dynamic_friction", c.dynamic_friction, ge(0), "");
+  if (c.dynamic_friction > c.static_friction)
+    t.rep().out_of_range(t.path("dynamic_friction"), *t.find("dynamic_friction"),
+                         "0 <= dynamic_friction <= static_friction (= " + fmt_num(c.static_friction) + ")");
+  c.decay = number(t, "decay", c.decay, ge(0), "s/m");
+  c.penalty_scale = number(t, "penalty_scale", c.penalty_scale, gt_le(0, 4), "");
+  c.damping_ratio = number(t, "damping_ratio", c.damping_ratio, ge_le(0, 1), "");
+}
+
+void read_pounder(const Table& top, PounderSpec& p) {
+  const toml::table* tt = sub_table(top, "pounder");
+  if (!tt) top.rep().missing("pounder", "a [pounder] section (mass, base_diameter, max_diameter, height) with [schedule]");
+  const Table t(top.rep(), *tt, "pounder", {"mass", "base_diameter", "max_diameter", "height", "profile_segments"});
+  p.mass = required_number(t, "mass", gt(0), "kg");
+  p.base_diameter = required_number(t, "base_diameter", gt(0), "m");
+  p.max_diameter = required_number(t, "max_diameter", gt(0), "m");
+  if (p.max_diameter < p.base_diameter)
+    t.rep().out_of_range(t.path("max_diameter"), *t.find("max_diameter"),
+                         "max_diameter >= base_diameter (= " + fmt_num(p.base_diameter) + ") (m)");
+  p.height = required_number(t, "height", gt(0), "m");
+  p.profile_segments = static_cast<int>(integer(t, "profile_segments", p.profile_segments, 1, 40));
+}
+
+void read_backfill(const Table& top, Config& cfg) {
+  BackfillSpec& b = cfg.backfill;
+  const toml::table* tt = sub_table(top, "backfill");
+  if (!tt) return;
+  const Table t(top.rep(), *tt, "backfill", {"material", "mode", "mass", "radius"});
+  std::vector<std::string> names;
+  for (const auto& m : cfg.materials) names.push_back(quote(m.name));
+  b.material = required_string(t, "material", "the name of a material: " + join(names, ", "));
+  bool found = false;
+  for (const auto& m : cfg.materials) found = found || m.name == b.material;
+  if (!found) t.rep().bad(t.path("material"), *t.find("material"), "is not a known material", join(names, ", "));
+  b.mode = choice(t, "mode", {"fill", "mass"}, "backfill mode", b.mode);
+  b.mass = number(t, "mass", b.mass, gt(0), "kg");
+  b.radius = number(t, "radius", b.radius, ge(0), "m");
+}
+
+void read_schedule(const Table& top, Config& cfg) {
+  ScheduleSpec& s = cfg.schedule;
+  const toml::table* tt = sub_table(top, "schedule");
+  if (!tt) return;
+  const Table t(top.rep(), *tt, "schedule",
+                {"drop_heights", "backfill_after", "drop_height_from", "ground_level", "relax_time", "damping",
+                 "rest_speed", "rest_hold", "rest_time", "max_impact_time", "extract_time", "settle_time",
+                 "tracer_interval"});
+  s.enabled = true;
+  s.drop_heights = number_array(t, "drop_heights", gt(0), "m");
+  s.backfill_after = increasing_int_array(t, "backfill_after", 1, static_cast<long long>(s.drop_heights.size()));
+  if (!s.backfill_after.empty() && cfg.backfill.material.empty())
+    t.rep().bad(t.path("backfill_after"), *t.find("backfill_after"), "needs a [backfill] section",
+                "a [backfill] section with material = \"...\", or no backfill_after");
+  s.drop_height_from = choice(t, "drop_height_from", {"ground", "surface"}, "reference", s.drop_height_from);
+  s.ground_level = number(t, "ground_level", s.ground_level, any(), "m");
+  s.relax_time = number(t, "relax_time", s.relax_time, ge(0), "s");
+  s.damping = number(t, "damping", s.damping, ge(0), "1/s");
+  s.rest_speed = number(t, "rest_speed", s.rest_speed, gt(0), "m/s");
+  s.rest_hold = number(t, "rest_hold", s.rest_hold, ge(0), "s");
+  s.rest_time = number(t, "rest_time", s.rest_time, ge(0), "s");
+  s.max_impact_time = number(t, "max_impact_time", s.max_impact_time, gt(0), "s");
+  s.extract_time = number(t, "extract_time", s.extract_time, ge(0), "s");
+  s.settle_time = number(t, "settle_time", s.settle_time, ge(0), "s");
+  s.tracer_interval = number(t, "tracer_interval", s.tracer_interval, gt(0), "s");
+}
+
+void read_tracers(const Table& top, Config& cfg) {
+  const toml::node* n = top.find("tracers");
+  if (!n) return;
+  const auto list = table_array(top, "tracers");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Table t(top.rep(), *list[i], "tracers[" + std::to_string(i) + "]", {"name", "r", "z"});
+    TracerSpec tr;
+    tr.name = required_string(t, "name", "a non-empty name (a CSV column)");
+    if (tr.name.empty() || tr.name.find_first_of(",\"\n") != std::string::npos)
+      t.rep().out_of_range(t.path("name"), *t.find("name"), "a non-empty name without commas, quotes or newlines");
+    tr.r = required_number(t, "r", ge(0), "m");
+    tr.z = required_number(t, "z", any(), "m");
+    cfg.tracers.push_back(tr);
+  }
+}
+
 Config build(const toml::table& root, const std::string& label) {
   const Reporter rep(label);
   Config cfg;
   cfg.source_file = label;
   const Table top(rep, root, "", {"run", "sph", "gravity", "damping", "gravity_ramp", "initial_stress", "materials",
-                                         "blocks", "boundaries"});
+                                         "blocks", "boundaries", "contact", "pounder", "backfill", "schedule",
+                                         "tracers"});
   cfg.gravity = number(top, "gravity", cfg.gravity, ge(0), "m/s2");
   cfg.damping = number(top, "damping", cfg.damping, ge(0), "1/s");
   cfg.gravity_ramp = number(top, "gravity_ramp", cfg.gravity_ramp, ge(0), "s");
@@ -543,6 +672,13 @@ Config build(const toml::table& root, const std::string& label) {
     cfg.blocks.push_back(read_block(b, cfg.materials));
   }
   read_boundaries(top, cfg);
+  read_contact(top, cfg.contact);
+  read_backfill(top, cfg);
+  read_schedule(top, cfg);
+  if (cfg.schedule.enabled) read_pounder(top, cfg.pounder);
+  else if (const auto* p = top.find("pounder"))
+    rep.bad("pounder", *p, "is only used with a [schedule]", "a [schedule] section, or no [pounder]");
+  read_tracers(top, cfg);
   return cfg;
 }
 
@@ -637,6 +773,51 @@ std::string to_toml(const Config& c) {
   o << "top = " << wall_text(c.top, "z") << "\n";
   o << "outer = " << wall_text(c.outer, "r") << "\n";
 
+  o << "\n[contact]\n";
+  o << "static_friction = " << fmt_float(c.contact.static_friction) << "\n";
+  o << "dynamic_friction = " << fmt_float(c.contact.dynamic_friction) << "\n";
+  o << "decay = " << fmt_float(c.contact.decay) << "  # s/m\n";
+  o << "penalty_scale = " << fmt_float(c.contact.penalty_scale) << "\n";
+  o << "damping_ratio = " << fmt_float(c.contact.damping_ratio) << "\n";
+  if (!c.backfill.material.empty()) {
+    o << "\n[backfill]\n";
+    o << "material = " << quote(c.backfill.material) << "\n";
+    o << "mode = " << quote(c.backfill.mode) << "\n";
+    o << "mass = " << fmt_float(c.backfill.mass) << "  # kg\n";
+    o << "radius = " << fmt_float(c.backfill.radius) << "  # m, 0 = automatic\n";
+  }
+  if (c.schedule.enabled) {
+    const ScheduleSpec& s = c.schedule;
+    o << "\n[pounder]\n";
+    o << "mass = " << fmt_float(c.pounder.mass) << "  # kg\n";
+    o << "base_diameter = " << fmt_float(c.pounder.base_diameter) << "  # m\n";
+    o << "max_diameter = " << fmt_float(c.pounder.max_diameter) << "  # m\n";
+    o << "height = " << fmt_float(c.pounder.height) << "  # m\n";
+    o << "profile_segments = " << c.pounder.profile_segments << "\n";
+    o << "\n[schedule]\n";
+    o << "drop_heights = [";
+    for (size_t k = 0; k < s.drop_heights.size(); ++k) o << (k ? ", " : "") << fmt_float(s.drop_heights[k]);
+    o << "]  # m\nbackfill_after = [";
+    for (size_t k = 0; k < s.backfill_after.size(); ++k) o << (k ? ", " : "") << s.backfill_after[k];
+    o << "]\n";
+    o << "drop_height_from = " << quote(s.drop_height_from) << "\n";
+    o << "ground_level = " << fmt_float(s.ground_level) << "  # m, 0 = top of the blocks\n";
+    o << "relax_time = " << fmt_float(s.relax_time) << "  # s\n";
+    o << "damping = " << fmt_float(s.damping) << "  # 1/s\n";
+    o << "rest_speed = " << fmt_float(s.rest_speed) << "  # m/s\n";
+    o << "rest_hold = " << fmt_float(s.rest_hold) << "  # s\n";
+    o << "rest_time = " << fmt_float(s.rest_time) << "  # s\n";
+    o << "max_impact_time = " << fmt_float(s.max_impact_time) << "  # s\n";
+    o << "extract_time = " << fmt_float(s.extract_time) << "  # s\n";
+    o << "settle_time = " << fmt_float(s.settle_time) << "  # s\n";
+    o << "tracer_interval = " << fmt_float(s.tracer_interval) << "  # s\n";
+  }
+  for (const auto& tr : c.tracers) {
+    o << "\n[[tracers]]\n";
+    o << "name = " << quote(tr.name) << "\n";
+    o << "r = " << fmt_float(tr.r) << "  # m\n";
+    o << "z = " << fmt_float(tr.z) << "  # m\n";
+  }
   for (const auto& m : c.materials) {
     o << "\n[[materials]]\n";
     o << "name = " << quote(m.name) << "\n";

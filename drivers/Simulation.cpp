@@ -31,6 +31,12 @@ Simulation::Simulation(const Config& config) : config_(config) {
   sph_.damping = config_.damping;
   sph_.kernel_correction = config_.sph.kernel_correction ? 1 : 0;
   skin_ = config_.sph.neighbour_skin * sph_.h;
+  contact_law_.contact_distance = 0.5 * dp;
+  contact_law_.penalty_scale = config_.contact.penalty_scale;
+  contact_law_.damping_ratio = config_.contact.damping_ratio;
+  contact_law_.static_friction = config_.contact.static_friction;
+  contact_law_.dynamic_friction = config_.contact.dynamic_friction;
+  contact_law_.decay = config_.contact.decay;
   fab_table_ = artificial_stress_table(sph_);
 
   // Mirror planes: the axis first, then the walls the deck asks for.
@@ -202,6 +208,117 @@ void Simulation::compute_acceleration() {
     Kokkos::parallel_for("tamp::non_reflecting", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
                          NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.rho, P.material, materials_,
                                                non_reflecting_, config_.sph.spacing});
+  if (body_.active) apply_contact();
+}
+
+void Simulation::apply_contact() {
+  Particles& P = particles_;
+  if (static_cast<int>(contact_force_.extent(0)) < P.capacity)
+    contact_force_ = ViewN<double, 2>("tamp::contact_force", P.capacity);
+  RigidBodyState state{body_.profile, body_.r0, body_.z0, body_.v_r, body_.v_z};
+  const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
+  Kokkos::parallel_for("tamp::contact::penalty", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       PenaltyContact{P.x, P.v, P.a, contact_force_, P.mass, P.rho, P.material, P.flags,
+                                      materials_, state, contact_law_, dt});
+  body_.contact = contact_sums(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
+  if (!body_.kinematic) {
+    body_.a_r = body_.free_r ? -body_.contact.force_r / body_.mass : 0.0;
+    body_.a_z = body_.free_z ? -body_.contact.force_z / body_.mass - sph_.gravity : 0.0;
+  } else {
+    body_.a_r = body_.a_z = 0.0;
+  }
+}
+
+void Simulation::integrate_body_half(double dt_half) {
+  if (!body_.active || body_.kinematic) return;
+  body_.v_r += dt_half * body_.a_r;
+  body_.v_z += dt_half * body_.a_z;
+}
+
+void Simulation::set_rigid_body(const RigidProfile& profile, double mass, bool free_r, bool free_z) {
+  if (profile.count < 3 || profile.count > max_profile_vertices)
+    throw std::invalid_argument("rigid body profile needs 3.." + std::to_string(max_profile_vertices) + " vertices");
+  if (!(mass > 0)) throw std::invalid_argument("rigid body mass must be > 0 kg");
+  body_.profile = profile;
+  body_.profile.finish();
+  body_.mass = mass;
+  body_.free_r = free_r;
+  body_.free_z = free_z;
+  body_.active = false;
+}
+
+void Simulation::place_body(double r0, double z0, double v_r, double v_z) {
+  if (body_.mass <= 0) throw std::logic_error("place_body before set_rigid_body");
+  body_.active = true;
+  body_.r0 = r0; body_.z0 = z0;
+  body_.v_r = v_r; body_.v_z = v_z;
+  body_.a_r = body_.a_z = 0.0;
+  compute_acceleration();  // the contact forces (and body acceleration) of the new position
+  contact_power_ = body_.contact.power;
+}
+
+double Simulation::add_particles(const std::vector<NewParticle>& list) {
+  if (list.empty()) return 0.0;
+  Particles& P = particles_;
+  const int n0 = P.n_real, count = static_cast<int>(list.size());
+  const int n1 = n0 + count;
+  P.reserve(n1 + n1 / 2 + 64);
+  View1<double> hr_dev("tamp::new_r", count), hz_dev("tamp::new_z", count);
+  View1<int> hm_dev("tamp::new_mat", count);
+  auto hr = Kokkos::create_mirror_view(hr_dev);
+  auto hz = Kokkos::create_mirror_view(hz_dev);
+  auto hm = Kokkos::create_mirror_view(hm_dev);
+  for (int k = 0; k < count; ++k) {
+    if (list[k].material < 0 || list[k].material >= static_cast<int>(materials_host_.size()))
+      throw std::invalid_argument("add_particles: unknown material index " + std::to_string(list[k].material));
+    if (!(list[k].r >= 0)) throw std::invalid_argument("add_particles: negative radius");
+    hr(k) = list[k].r; hz(k) = list[k].z; hm(k) = list[k].material;
+  }
+  Kokkos::deep_copy(hr_dev, hr);
+  Kokkos::deep_copy(hz_dev, hz);
+  Kokkos::deep_copy(hm_dev, hm);
+  const double dp = config_.sph.spacing, r_floor = 1e-3 * dp;
+  auto x = P.x; auto v = P.v; auto a = P.a; auto a_ext = P.a_ext; auto vp = P.v_prescribed; auto xr = P.x_ref;
+  auto t0 = P.traction0; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho; auto sigma = P.sigma;
+  auto R = P.art_stress; auto eps = P.plastic_strain; auto u = P.internal_energy; auto du = P.du_visc;
+  auto chi = P.hoop_factor; auto mat = P.material; auto flags = P.flags;
+  auto mats = materials_;
+  double added = 0;
+  Kokkos::parallel_reduce("tamp::add_particles", Kokkos::RangePolicy<ExecSpace>(0, count),
+                          KOKKOS_LAMBDA(int k, double& m_sum) {
+                            const int i = n0 + k;
+                            const double r = hr_dev(k);
+                            const double rho0 = mats(hm_dev(k)).density;
+                            x(i, 0) = r; x(i, 1) = hz_dev(k);
+                            xr(i, 0) = r; xr(i, 1) = hz_dev(k);
+                            for (int c = 0; c < 2; ++c) {
+                              v(i, c) = 0; a(i, c) = 0; a_ext(i, c) = 0; vp(i, c) = 0; t0(i, c) = 0;
+                            }
+                            for (int c = 0; c < 4; ++c) sigma(i, c) = 0;
+                            for (int c = 0; c < 3; ++c) R(i, c) = 0;
+                            rho(i) = rho0;
+                            mass(i) = rho0 * 2.0 * pi * r * dp * dp;
+                            mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
+                            eps(i) = 0; u(i) = 0; du(i) = 0; chi(i) = 1.0;
+                            mat(i) = hm_dev(k); flags(i) = 0;
+                            m_sum += mass(i);
+                          },
+                          added);
+  P.n_real = n1;
+  P.n_total = n1;
+  refresh_neighbours(true);
+  ensure_pair_storage();
+  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       PairKernelFactors{P.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+  update_pair_stress();
+  compute_acceleration();
+  return added;
+}
+
+double Simulation::body_energy() const {
+  if (!body_.active) return 0.0;
+  return 0.5 * body_.mass * (body_.v_r * body_.v_r + body_.v_z * body_.v_z) +
+         body_.mass * config_.gravity * body_.z0;
 }
 
 double Simulation::stable_dt() const {
@@ -235,6 +352,11 @@ void Simulation::step(double dt_override) {
 
   Kick kick{P.v, P.a, P.v_prescribed, P.internal_energy, P.du_visc, P.flags, 0.5 * dt};
   Kokkos::parallel_for("tamp::kick", reals, kick);
+  integrate_body_half(0.5 * dt);
+  if (body_.active) {
+    body_.r0 += dt * body_.v_r;
+    body_.z0 += dt * body_.v_z;
+  }
 
   MirrorPlanes walls;  // the axis and the walls: reflect particles that cross them
   walls = ghosts_.planes;
@@ -264,6 +386,15 @@ void Simulation::step(double dt_override) {
 
   compute_acceleration();
   Kokkos::parallel_for("tamp::kick", reals, kick);
+  integrate_body_half(0.5 * dt);
+  if (body_.active) {
+    // trapezoidal rule on the contact power, with the full-step velocities
+    const ContactSums end = contact_sums(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
+    contact_energy_ -= 0.5 * dt * (contact_power_ + end.power);
+    contact_power_ = end.power;
+  } else {
+    contact_power_ = 0.0;
+  }
   time_ += dt;
   ++steps_;
 }
@@ -433,6 +564,17 @@ Checkpoint Simulation::save_state() {
   c.scalars["time"] = time_;
   c.scalars["steps"] = static_cast<double>(steps_);
   c.scalars["particles"] = n;
+  c.scalars["damping"] = sph_.damping;
+  c.scalars["body_active"] = body_.active ? 1.0 : 0.0;
+  c.scalars["body_r0"] = body_.r0;
+  c.scalars["body_z0"] = body_.z0;
+  c.scalars["body_v_r"] = body_.v_r;
+  c.scalars["body_v_z"] = body_.v_z;
+  c.scalars["body_a_r"] = body_.a_r;
+  c.scalars["body_a_z"] = body_.a_z;
+  c.scalars["contact_energy"] = contact_energy_;
+  c.scalars["contact_power"] = contact_power_;
+  c.scalars["last_dt"] = dt_;
   return c;
 }
 
@@ -444,9 +586,18 @@ void Simulation::load_state(const Checkpoint& c) {
     if (it == c.scalars.end()) throw std::invalid_argument(std::string("checkpoint has no '") + name + "'");
     return it->second;
   };
-  if (static_cast<int>(scalar("particles")) != n)
-    throw std::invalid_argument("checkpoint has " + std::to_string(static_cast<long>(scalar("particles"))) +
+  // Backfill adds particles: a checkpoint may hold more than the deck makes, never fewer.
+  const int n_saved = static_cast<int>(scalar("particles"));
+  if (n_saved < n)
+    throw std::invalid_argument("checkpoint has " + std::to_string(n_saved) +
                                 " particles; the deck makes " + std::to_string(n));
+  if (n_saved > n) {
+    P.reserve(n_saved + n_saved / 2 + 64);
+    P.n_real = P.n_total = n_saved;
+    Kokkos::deep_copy(P.hoop_factor, 1.0);
+    Kokkos::deep_copy(P.art_stress, 0.0);
+  }
+  const int n_new = n_saved;
   auto real = [&](const char* name) -> const Checkpoint::Real& {
     auto it = c.reals.find(name);
     if (it == c.reals.end()) throw std::invalid_argument(std::string("checkpoint has no field '") + name + "'");
@@ -457,25 +608,43 @@ void Simulation::load_state(const Checkpoint& c) {
     if (it == c.ints.end()) throw std::invalid_argument(std::string("checkpoint has no field '") + name + "'");
     return it->second;
   };
-  get_rows(real("x"), "x", P.x, n);
-  get_rows(real("v"), "v", P.v, n);
-  get_rows(real("a"), "a", P.a, n);
-  get_rows(real("a_ext"), "a_ext", P.a_ext, n);
-  get_rows(real("v_prescribed"), "v_prescribed", P.v_prescribed, n);
-  get_rows(real("traction0"), "traction0", P.traction0, n);
-  get_rows(real("mass"), "mass", P.mass, n);
-  get_rows(real("rho"), "rho", P.rho, n);
-  get_rows(real("sigma"), "sigma", P.sigma, n);
-  get_rows(real("plastic_strain"), "plastic_strain", P.plastic_strain, n);
-  get_rows(real("internal_energy"), "internal_energy", P.internal_energy, n);
-  get_rows(real("du_visc"), "du_visc", P.du_visc, n);
-  get_rows(integer("material"), "material", P.material, n);
-  get_rows(integer("flags"), "flags", P.flags, n);
+  get_rows(real("x"), "x", P.x, n_new);
+  get_rows(real("v"), "v", P.v, n_new);
+  get_rows(real("a"), "a", P.a, n_new);
+  get_rows(real("a_ext"), "a_ext", P.a_ext, n_new);
+  get_rows(real("v_prescribed"), "v_prescribed", P.v_prescribed, n_new);
+  get_rows(real("traction0"), "traction0", P.traction0, n_new);
+  get_rows(real("mass"), "mass", P.mass, n_new);
+  get_rows(real("rho"), "rho", P.rho, n_new);
+  get_rows(real("sigma"), "sigma", P.sigma, n_new);
+  get_rows(real("plastic_strain"), "plastic_strain", P.plastic_strain, n_new);
+  get_rows(real("internal_energy"), "internal_energy", P.internal_energy, n_new);
+  get_rows(real("du_visc"), "du_visc", P.du_visc, n_new);
+  get_rows(integer("material"), "material", P.material, n_new);
+  get_rows(integer("flags"), "flags", P.flags, n_new);
   time_ = scalar("time");
   steps_ = static_cast<long>(scalar("steps"));
   sph_.gravity = gravity_at(time_);
+  auto optional = [&](const char* name, double fallback) {
+    auto it = c.scalars.find(name);
+    return it == c.scalars.end() ? fallback : it->second;
+  };
+  sph_.damping = optional("damping", sph_.damping);
+  body_.active = optional("body_active", 0.0) != 0.0;
+  if (body_.active && body_.mass <= 0)
+    throw std::invalid_argument("checkpoint has a rigid body in the model; this deck defines none");
+  body_.r0 = optional("body_r0", 0.0);
+  body_.z0 = optional("body_z0", 0.0);
+  body_.v_r = optional("body_v_r", 0.0);
+  body_.v_z = optional("body_v_z", 0.0);
+  body_.a_r = optional("body_a_r", 0.0);
+  body_.a_z = optional("body_a_z", 0.0);
+  contact_energy_ = optional("contact_energy", 0.0);
+  contact_power_ = optional("contact_power", 0.0);
+  dt_ = optional("last_dt", 0.0);
   refresh_planar_mass();
   refresh_neighbours(true);
+  ensure_pair_storage();
   // pair quantities of the restored state; the stored accelerations are kept (they were
   // computed with the half-step velocities, which a full-step state cannot reproduce)
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),

@@ -12,12 +12,33 @@
 #include "kernels/Integrate.hpp"
 #include "kernels/Mirror.hpp"
 #include "kernels/NeighbourList.hpp"
+#include "kernels/RigidContact.hpp"
 #include "kernels/SphSolid.hpp"
 
 namespace tamp {
 
 struct Box {
   double r_min, r_max, z_min, z_max;  // m; a particle is inside when r_min <= r < r_max ...
+};
+
+// One rigid body of revolution (the pounder, a punch, a sliding block) in penalty contact
+// with the particles. Its profile and mass are set once; place() puts it in the model.
+struct RigidBody {
+  RigidProfile profile;           // meridian section in the body frame, m
+  double mass = 0;                // kg (the whole body of revolution)
+  bool free_r = false, free_z = true;  // degrees of freedom integrated from the forces
+  bool kinematic = false;         // true: the velocity is prescribed (a displacement-driven punch)
+  bool active = false;            // in the model (false: lifted out)
+  double r0 = 0, z0 = 0;          // m, position of the body frame
+  double v_r = 0, v_z = 0;        // m/s
+  double a_r = 0, a_z = 0;        // m/s2, of the last step
+  ContactSums contact;            // forces on the particles in the last step (body: minus)
+};
+
+// A particle to add (backfill): position (m) and material index; density is the material's.
+struct NewParticle {
+  double r, z;
+  int material;
 };
 
 // Thrown when the run cannot go on (NaN, collapsing time step): the message says what and where.
@@ -51,6 +72,26 @@ class Simulation {
   const std::vector<MaterialParams>& materials() const { return materials_host_; }
 
   Energies energies() const;
+
+  // The rigid body: set its shape and mass once, then place / remove it.
+  void set_rigid_body(const RigidProfile& profile, double mass, bool free_r = false, bool free_z = true);
+  void place_body(double r0, double z0, double v_r, double v_z);
+  void remove_body() { body_.active = false; }
+  void set_body_kinematic(bool k) { body_.kinematic = k; }
+  const RigidBody& body() const { return body_; }
+  // Kinetic + gravitational energy of the body (J, potential relative to z0 = 0; 0 when out).
+  double body_energy() const;
+  // Energy taken up by the contact so far (stored in the penalty springs + dissipated by
+  // friction and contact damping), J: minus the time integral of sum F_i . (v_i - V).
+  double contact_energy() const { return contact_energy_; }
+
+  // Mass-proportional damping (1/s) from now on (the deck's value at the start).
+  void set_damping(double d) { sph_.damping = d; }
+  double damping() const { return sph_.damping; }
+
+  // Appends particles at rest with zero stress, each of ring mass rho 2 pi r dp^2, and
+  // rebuilds the lists; returns the mass added (kg).
+  double add_particles(const std::vector<NewParticle>& list);
   ParticleSnapshot snapshot() const;
 
   // The full restartable state of the real particles (positions, velocities, the
@@ -102,6 +143,12 @@ class Simulation {
   NeighbourList neighbours_;
   Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
   View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
+  ViewN<double, 2> contact_force_;  // per particle ring, N
+  RigidBody body_;
+  ContactLaw contact_law_;
+  double contact_energy_ = 0, contact_power_ = 0;
+  void apply_contact();
+  void integrate_body_half(double dt_half);
   double skin_ = 0;
   double time_ = 0, dt_ = 0;
   long steps_ = 0, list_builds_ = 0;

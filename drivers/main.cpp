@@ -3,6 +3,7 @@
 //   tamp check DECK                     validate a deck and print what it would run
 //   tamp --version
 //   tamp run DECK --out DIR --restart OLD/checkpoint.h5   resume an interrupted run
+//   (a deck with [schedule] runs the drop sequence: drivers/DropSequence.hpp)
 // Exit codes: 0 ok, 2 bad input, 1 run failure (or interrupted). Every snapshot also
 // writes DIR/checkpoint.h5, the last good restartable state.
 #include <CLI/CLI.hpp>
@@ -19,6 +20,7 @@
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
 #include "core/Output.hpp"
+#include "drivers/DropSequence.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace fs = std::filesystem;
@@ -66,7 +68,52 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
   os << "time step:   " << fmt("%.3g", dt) << " s (CFL " << cfg.run.cfl << "), about "
      << static_cast<long>(cfg.run.end_time / dt) << " steps\n"
      << "gravity:     " << cfg.gravity << " m/s2, damping " << cfg.damping << " 1/s\n"
-     << "stages:      one (" << cfg.run.end_time << " s of dynamics)\n";
+     << "stages:      ";
+  if (!cfg.schedule.enabled) {
+    os << "one (" << cfg.run.end_time << " s of dynamics)\n";
+    return;
+  }
+  const auto& s = cfg.schedule;
+  os << "relax " << s.relax_time << " s, then " << s.drop_heights.size() << " blows (impact, extract) and "
+     << s.backfill_after.size() << " backfills of \"" << cfg.backfill.material << "\" (" << cfg.backfill.mode << ")\n"
+     << "pounder:     " << cfg.pounder.mass << " kg, base " << cfg.pounder.base_diameter << " m, max "
+     << cfg.pounder.max_diameter << " m, height " << cfg.pounder.height << " m; friction FS "
+     << cfg.contact.static_friction << " FD " << cfg.contact.dynamic_friction << "\n";
+}
+
+// A dynamic-replacement run: the stage sequence of the deck's [schedule].
+int run_sequence(const Config& cfg, Simulation& sim, const std::string& out, const tamp::Checkpoint* resume,
+                 int stop_after) {
+  tamp::DropSequence seq(sim, cfg, out);
+  if (resume) {
+    seq.restore(*resume);
+    tamp::log::info("restarted at stage " + std::to_string(seq.next_stage()) + " of " +
+                    std::to_string(seq.stages().size()) + ", t = " + std::to_string(sim.time()) + " s");
+  }
+  std::signal(SIGINT, on_sigint);
+  const auto t0 = std::chrono::steady_clock::now();
+  bool done = false;
+  try {
+    done = seq.run(stop_after, [] { return !g_interrupted.load(); });
+  } catch (const RunFailure& e) {
+    tamp::log::error("run failed in stage " + std::to_string(seq.next_stage()) + ": " + e.what() +
+                     "; last good state: " + (seq.last_checkpoint().empty() ? std::string("none") : seq.last_checkpoint()) +
+                     " (resume with: tamp run DECK --restart CHECKPOINT --out NEWDIR)");
+    return 1;
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (g_interrupted) {
+    tamp::log::error("interrupted (Ctrl-C) in stage " + std::to_string(seq.next_stage()) + "; checkpoint " +
+                     seq.last_checkpoint() + " (resume with: tamp run DECK --restart " + seq.last_checkpoint() +
+                     " --out NEWDIR)");
+    return 1;
+  }
+  std::ostringstream msg;
+  msg << (done ? "finished: " : "stopped after stage " + std::to_string(seq.next_stage() - 1) + ": ") << sim.steps()
+      << " steps, t = " << sim.time() << " s, " << sim.particle_count() << " particles, wall " << fmt("%.1f", wall)
+      << " s this run; results in " << out;
+  tamp::log::info(msg.str());
+  return 0;
 }
 
 int cmd_check(const std::string& deck) {
@@ -77,7 +124,8 @@ int cmd_check(const std::string& deck) {
   return 0;
 }
 
-int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart) {
+int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart,
+            int stop_after) {
   Config cfg = load_deck(deck);  // validated before any work
   tamp::Checkpoint resume;
   if (!restart.empty()) {
@@ -102,6 +150,11 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
   { std::ofstream(out + "/deck.toml") << to_toml(cfg); }
 
   Simulation sim(cfg);
+  if (cfg.schedule.enabled) {
+    print_plan(cfg, sim, std::cerr);
+    return run_sequence(cfg, sim, out, restart.empty() ? nullptr : &resume, stop_after);
+  }
+  if (stop_after >= 0) throw std::invalid_argument("--stop-after-stage needs a deck with a [schedule]");
   if (!restart.empty()) {
     sim.load_state(resume);
     tamp::log::info("restarted from " + restart + " at t = " + std::to_string(sim.time()) + " s, step " +
@@ -199,13 +252,17 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("tamp ") + TAMP_VERSION);
   app.require_subcommand(1);
   std::string deck, out, restart;
+  int stop_after = -1;
   bool force = false;
   auto* run = app.add_subcommand("run", "Run an input deck and write the results to a folder");
   run->add_option("deck", deck, "Input deck (TOML), e.g. examples/geostatic-clay.toml")->required();
   run->add_option("--out", out, "Result folder (must not exist unless --force)")->required();
   run->add_flag("--force", force, "Overwrite an existing result folder");
   run->add_option("--restart", restart,
-                  "Resume from a checkpoint (DIR/checkpoint.h5 of an earlier run of the same deck)");
+                  "Resume from a checkpoint of an earlier run of the same deck: DIR/checkpoint.h5, or for a "
+                  "drop sequence DIR/checkpoints/<stage>.h5 (any stage) or DIR/checkpoints/interrupted.h5");
+  run->add_option("--stop-after-stage", stop_after,
+                  "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
   try {
@@ -218,7 +275,7 @@ int main(int argc, char** argv) {
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
-    if (*run) rc = cmd_run(deck, out, force, restart);
+    if (*run) rc = cmd_run(deck, out, force, restart, stop_after);
     if (*check) rc = cmd_check(deck);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

@@ -1,0 +1,530 @@
+#include "drivers/DropSequence.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/Log.hpp"
+
+namespace tamp {
+namespace fs = std::filesystem;
+
+namespace {
+
+double wall_now() {
+  using clock = std::chrono::steady_clock;
+  static const clock::time_point t0 = clock::now();
+  return std::chrono::duration<double>(clock::now() - t0).count();
+}
+
+const char* kind_name(StageKind k) {
+  switch (k) {
+    case StageKind::Relax: return "relax";
+    case StageKind::Impact: return "impact";
+    case StageKind::Extract: return "extract";
+    default: return "backfill";
+  }
+}
+
+// Host copies of what the stage-end measurements need.
+struct HostParticles {
+  std::vector<double> r, z, mass;
+  std::vector<int> material;
+};
+
+HostParticles host_particles(Simulation& sim) {
+  const ParticleSnapshot s = sim.snapshot();
+  return {s.r, s.z, s.mass, s.material};
+}
+
+// Free crater sites: for each candidate (r_c, z_c), 1 if no particle lies within
+// `clearance` of it and none lies above it in its column (|r - r_c| < dp/2, z > z_c): the
+// site is in a hole open to the sky, not a void inside the soil.
+struct FreeSite {
+  ViewN<double, 2> x;
+  View1<double> cr, cz;
+  View1<int> free_flag;
+  int n;
+  double clearance2, half_dp;
+  KOKKOS_INLINE_FUNCTION void operator()(const int c) const {
+    int ok = 1;
+    for (int j = 0; j < n && ok; ++j) {
+      const double dr = x(j, 0) - cr(c), dz = x(j, 1) - cz(c);
+      if (dr * dr + dz * dz < clearance2) ok = 0;
+      if (math::abs(dr) < half_dp && dz > 0) ok = 0;
+    }
+    free_flag(c) = ok;
+  }
+};
+
+}  // namespace
+
+bool is_drop_sequence_checkpoint(const Checkpoint& c) { return c.scalars.count("seq_next_stage") > 0; }
+
+DropSequence::DropSequence(Simulation& sim, const Config& cfg, std::string out)
+    : sim_(sim), cfg_(cfg), out_(std::move(out)), series_(out_ + "/stages.xdmf") {
+  const ScheduleSpec& sch = cfg_.schedule;
+  if (!sch.enabled) throw std::invalid_argument("the deck has no [schedule]: nothing to sequence");
+  double top = -1e300;
+  for (const auto& b : cfg_.blocks) top = std::max(top, b.z_max);
+  ground_ = sch.ground_level != 0.0 ? sch.ground_level : top;
+  for (size_t k = 0; k < cfg_.materials.size(); ++k)
+    if (cfg_.materials[k].name == cfg_.backfill.material) backfill_material_ = static_cast<int>(k);
+
+  stages_.push_back({StageKind::Relax, 0});
+  for (size_t b = 1; b <= sch.drop_heights.size(); ++b) {
+    stages_.push_back({StageKind::Impact, static_cast<int>(b)});
+    stages_.push_back({StageKind::Extract, static_cast<int>(b)});
+    if (std::find(sch.backfill_after.begin(), sch.backfill_after.end(), static_cast<int>(b)) != sch.backfill_after.end())
+      stages_.push_back({StageKind::Backfill, static_cast<int>(b)});
+  }
+  const PounderSpec& p = cfg_.pounder;
+  sim_.set_rigid_body(barrel_profile(p.base_diameter, p.max_diameter, p.height, p.profile_segments), p.mass);
+
+  // Tracers: the particle nearest to each requested point.
+  const HostParticles hp = host_particles(sim_);
+  for (const auto& t : cfg_.tracers) {
+    int best = -1;
+    double d2 = 1e300;
+    for (size_t i = 0; i < hp.r.size(); ++i) {
+      const double d = (hp.r[i] - t.r) * (hp.r[i] - t.r) + (hp.z[i] - t.z) * (hp.z[i] - t.z);
+      if (d < d2) { d2 = d; best = static_cast<int>(i); }
+    }
+    tracer_index_.push_back(best);
+    tracer_r0_.push_back(hp.r[best]);
+    tracer_z0_.push_back(hp.z[best]);
+  }
+  fs::create_directories(out_ + "/stages");
+  fs::create_directories(out_ + "/checkpoints");
+}
+
+std::string DropSequence::stage_name(int k) const {
+  char buf[64];
+  const Stage& s = stages_.at(k);
+  if (s.kind == StageKind::Relax) std::snprintf(buf, sizeof buf, "%03d-relax", k);
+  else std::snprintf(buf, sizeof buf, "%03d-%s-blow%02d", k, kind_name(s.kind), s.blow);
+  return buf;
+}
+
+BlowRecord& DropSequence::blow_record(int blow) {
+  while (static_cast<int>(blows_.size()) < blow) {
+    BlowRecord r;
+    r.blow = static_cast<int>(blows_.size()) + 1;
+    r.drop_height_m = cfg_.schedule.drop_heights[r.blow - 1];
+    blows_.push_back(r);
+  }
+  return blows_[blow - 1];
+}
+
+// Top of the particles under the pounder (centre of the highest particle whose column
+// overlaps the pounder's widest radius), m.
+double DropSequence::surface_under_pounder() const {
+  const HostParticles hp = host_particles(sim_);
+  const double reach = 0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing;
+  double top = -1e300;
+  for (size_t i = 0; i < hp.r.size(); ++i)
+    if (hp.r[i] < reach) top = std::max(top, hp.z[i]);
+  return top;
+}
+
+void DropSequence::begin_impact(const Stage& s) {
+  const double dp = cfg_.sph.spacing;
+  const double top = surface_under_pounder();
+  // The base touches a particle when it is dp/2 above the particle's centre; start a
+  // tenth of a spacing above that, with the speed of free fall from the drop height.
+  const double z0 = top + 0.5 * dp + 0.1 * dp;
+  double fall = cfg_.schedule.drop_heights[s.blow - 1];
+  if (cfg_.schedule.drop_height_from == "ground") fall += std::max(0.0, ground_ - z0);
+  const double v0 = std::sqrt(2.0 * cfg_.gravity * fall);
+  sim_.set_damping(cfg_.damping);
+  sim_.place_body(0.0, z0, 0.0, -v0);
+  z_start_ = z0;
+  peak_dec_ = 0;
+  rest_since_ = -1;
+  phase_ = 0;
+  BlowRecord& rec = blow_record(s.blow);
+  rec.drop_height_m = cfg_.schedule.drop_heights[s.blow - 1];
+}
+
+bool DropSequence::impact_step() {
+  const ScheduleSpec& sch = cfg_.schedule;
+  sim_.step();
+  const RigidBody& b = sim_.body();
+  const double t = sim_.time() - stage_t0_;
+  if (phase_ == 0) {
+    peak_dec_ = std::max(peak_dec_, b.a_z);  // upward acceleration = deceleration of the fall
+    if (std::fabs(b.v_z) < sch.rest_speed && t > sch.rest_hold) {
+      if (rest_since_ < 0) rest_since_ = sim_.time();
+      if (sim_.time() - rest_since_ >= sch.rest_hold) {
+        phase_ = 1;
+        rest_since_ = sim_.time();
+        sim_.set_damping(sch.damping);
+      }
+    } else {
+      rest_since_ = -1;
+    }
+    if (t >= sch.max_impact_time) {
+      log::warn("blow " + std::to_string(stages_[next_stage_].blow) + ": the pounder did not come to rest within max_impact_time = " +
+                std::to_string(sch.max_impact_time) + " s (speed " + std::to_string(b.v_z) + " m/s); going on");
+      return false;
+    }
+    return true;
+  }
+  return sim_.time() - rest_since_ < sch.rest_time;
+}
+
+void DropSequence::backfill(const Stage& s) {
+  const double dp = cfg_.sph.spacing;
+  const BackfillSpec& bf = cfg_.backfill;
+  const double radius = bf.radius > 0 ? bf.radius : 0.5 * cfg_.pounder.max_diameter + 2.0 * dp;
+  const double z_lo = cfg_.blocks.empty() ? ground_ - 1.0 : [&] {
+    double lo = 1e300;
+    for (const auto& b : cfg_.blocks) lo = std::min(lo, b.z_min);
+    return lo;
+  }();
+  const double z_hi = bf.mode == "fill" ? ground_ : ground_ + 0.5;
+  std::vector<double> cr, cz;
+  for (int k = 0; (k + 0.5) * dp < radius; ++k)
+    for (int j = 0; ground_ - (j + 0.5) * dp > z_lo; ++j) cr.push_back((k + 0.5) * dp), cz.push_back(ground_ - (j + 0.5) * dp);
+  if (bf.mode == "mass")
+    for (int k = 0; (k + 0.5) * dp < radius; ++k)
+      for (int j = 0; ground_ + (j + 0.5) * dp < z_hi; ++j) cr.push_back((k + 0.5) * dp), cz.push_back(ground_ + (j + 0.5) * dp);
+  const int nc = static_cast<int>(cr.size());
+  View1<double> dcr("tamp::backfill_r", nc), dcz("tamp::backfill_z", nc);
+  View1<int> flag("tamp::backfill_free", nc);
+  {
+    auto hr = Kokkos::create_mirror_view(dcr);
+    auto hz = Kokkos::create_mirror_view(dcz);
+    for (int c = 0; c < nc; ++c) { hr(c) = cr[c]; hz(c) = cz[c]; }
+    Kokkos::deep_copy(dcr, hr);
+    Kokkos::deep_copy(dcz, hz);
+  }
+  const double clearance = 0.9 * dp;
+  Kokkos::parallel_for("tamp::backfill::free_sites", Kokkos::RangePolicy<ExecSpace>(0, nc),
+                       FreeSite{sim_.particles().x, dcr, dcz, flag, sim_.particle_count(), clearance * clearance, 0.5 * dp});
+  auto hflag = Kokkos::create_mirror_view_and_copy(HostSpace(), flag);
+  std::vector<int> order;
+  for (int c = 0; c < nc; ++c)
+    if (hflag(c)) order.push_back(c);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cz[a] < cz[b] || (cz[a] == cz[b] && cr[a] < cr[b]); });
+  const double rho = cfg_.materials[backfill_material_].density;
+  std::vector<NewParticle> add;
+  double mass = 0;
+  for (int c : order) {
+    const double m = rho * 2.0 * pi * cr[c] * dp * dp;
+    if (bf.mode == "mass" && mass + 0.5 * m > bf.mass) break;
+    add.push_back({cr[c], cz[c], backfill_material_});
+    mass += m;
+  }
+  const double added = sim_.add_particles(add);
+  blow_record(s.blow).aggregate_added_kg += added;
+  log::info("blow " + std::to_string(s.blow) + ": backfill of " + std::to_string(add.size()) + " particles, " +
+            std::to_string(added) + " kg");
+  sim_.set_damping(cfg_.schedule.damping);
+}
+
+void DropSequence::record(bool force) {
+  if (!force && sim_.time() < next_record_) return;
+  next_record_ = sim_.time() + cfg_.schedule.tracer_interval;
+  const Stage& st = stages_[std::min<int>(next_stage_, static_cast<int>(stages_.size()) - 1)];
+  if (!tracer_index_.empty()) {
+    std::vector<double> row{sim_.time(), double(st.blow), double(next_stage_)};
+    auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), sim_.particles().x);
+    for (size_t k = 0; k < tracer_index_.size(); ++k) {
+      row.push_back(x(tracer_index_[k], 1) - tracer_z0_[k]);
+      row.push_back(x(tracer_index_[k], 0) - tracer_r0_[k]);
+    }
+    tracer_rows_.push_back(row);
+  }
+  const RigidBody& b = sim_.body();
+  if (b.active)
+    pounder_rows_.push_back({sim_.time(), double(st.blow), b.z0, b.v_z, b.a_z, -b.contact.force_z});
+  const Energies e = sim_.energies();
+  energy_rows_.push_back({sim_.time(), e.kinetic, e.internal, e.potential, sim_.body_energy(), sim_.contact_energy(),
+                          e.total() + sim_.body_energy() + sim_.contact_energy()});
+}
+
+void DropSequence::progress(int k, bool force) {
+  if (log::level() == log::Level::Quiet) return;
+  const double now = wall_now();
+  if (!force && now - last_progress_wall_ < cfg_.run.progress_interval) return;
+  last_progress_wall_ = now;
+  const Stage& s = stages_[k];
+  const double done_frac = double(k) / stages_.size();
+  const double elapsed = wall_done_ + stage_wall_;
+  const double left = k > 0 ? elapsed / done_frac * (1.0 - done_frac) : 0.0;
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "[tamp] stage %d/%zu %-8s blow %d/%zu | t = %.4f s | step %ld | %.0f steps/s | ~%.0f s left",
+                k + 1, stages_.size(), kind_name(s.kind), s.blow, cfg_.schedule.drop_heights.size(), sim_.time(),
+                sim_.steps(), sim_.steps() / std::max(1e-9, now), left);
+  std::fprintf(stderr, "%s\n", buf);
+}
+
+Checkpoint DropSequence::checkpoint() {
+  Checkpoint c = sim_.save_state();
+  c.scalars["seq_next_stage"] = next_stage_;
+  c.scalars["seq_in_stage"] = in_stage_ ? 1 : 0;
+  c.scalars["seq_stage_t0"] = stage_t0_;
+  c.scalars["seq_rest_since"] = rest_since_;
+  c.scalars["seq_z_start"] = z_start_;
+  c.scalars["seq_peak_dec"] = peak_dec_;
+  c.scalars["seq_phase"] = phase_;
+  c.scalars["seq_next_record"] = next_record_;
+  c.scalars["seq_wall_done"] = wall_done_ + stage_wall_;
+  auto& br = c.reals["seq_blows"];
+  br.width = 8;
+  for (const auto& b : blows_)
+    for (double v : {double(b.blow), b.drop_height_m, b.crater_depth_m, b.penetration_m, b.peak_deceleration_m_s2,
+                     b.uplift_m, b.aggregate_added_kg, b.wall_s})
+      br.values.push_back(v);
+  auto rows = [&](const char* name, const std::vector<std::vector<double>>& t, int width) {
+    auto& a = c.reals[name];
+    a.width = width;
+    for (const auto& r : t) a.values.insert(a.values.end(), r.begin(), r.end());
+  };
+  rows("seq_tracers", tracer_rows_, 3 + 2 * static_cast<int>(tracer_index_.size()));
+  rows("seq_pounder", pounder_rows_, 6);
+  rows("seq_energy", energy_rows_, 7);
+  auto& ti = c.ints["seq_tracer_index"];
+  ti.values = tracer_index_;
+  auto& t0 = c.reals["seq_tracer_origin"];
+  t0.width = 2;
+  for (size_t k = 0; k < tracer_index_.size(); ++k) {
+    t0.values.push_back(tracer_r0_[k]);
+    t0.values.push_back(tracer_z0_[k]);
+  }
+  return c;
+}
+
+void DropSequence::restore(const Checkpoint& c) {
+  if (!is_drop_sequence_checkpoint(c))
+    throw std::invalid_argument("the checkpoint is not from a drop sequence (no stage information)");
+  sim_.load_state(c);
+  auto s = [&](const char* k) { return c.scalars.at(k); };
+  next_stage_ = static_cast<int>(s("seq_next_stage"));
+  if (next_stage_ > static_cast<int>(stages_.size()))
+    throw std::invalid_argument("the checkpoint is at stage " + std::to_string(next_stage_) + "; this deck has " +
+                                std::to_string(stages_.size()) + " stages");
+  in_stage_ = s("seq_in_stage") != 0;
+  stage_t0_ = s("seq_stage_t0");
+  rest_since_ = s("seq_rest_since");
+  z_start_ = s("seq_z_start");
+  peak_dec_ = s("seq_peak_dec");
+  phase_ = static_cast<int>(s("seq_phase"));
+  next_record_ = s("seq_next_record");
+  wall_done_ = s("seq_wall_done");
+  blows_.clear();
+  const auto& br = c.reals.at("seq_blows");
+  for (size_t i = 0; i + 8 <= br.values.size(); i += 8) {
+    const double* v = &br.values[i];
+    blows_.push_back({int(v[0]), v[1], v[2], v[3], v[4], v[5], v[6], v[7]});
+  }
+  auto rows = [&](const char* name, std::vector<std::vector<double>>& t) {
+    t.clear();
+    const auto& a = c.reals.at(name);
+    for (size_t i = 0; a.width > 0 && i + a.width <= a.values.size(); i += a.width)
+      t.emplace_back(a.values.begin() + i, a.values.begin() + i + a.width);
+  };
+  tracer_index_ = c.ints.at("seq_tracer_index").values;
+  const auto& t0 = c.reals.at("seq_tracer_origin").values;
+  tracer_r0_.clear();
+  tracer_z0_.clear();
+  for (size_t k = 0; k + 1 < t0.size(); k += 2) {
+    tracer_r0_.push_back(t0[k]);
+    tracer_z0_.push_back(t0[k + 1]);
+  }
+  rows("seq_tracers", tracer_rows_);
+  rows("seq_pounder", pounder_rows_);
+  rows("seq_energy", energy_rows_);
+}
+
+void DropSequence::end_stage(int k) {
+  const Stage& s = stages_[k];
+  const ScheduleSpec& sch = cfg_.schedule;
+  (void)sch;
+  if (s.kind == StageKind::Impact) {
+    BlowRecord& rec = blow_record(s.blow);
+    const RigidBody& b = sim_.body();
+    rec.crater_depth_m = ground_ - b.z0;
+    rec.penetration_m = z_start_ - b.z0;
+    rec.peak_deceleration_m_s2 = peak_dec_;
+  }
+  if (s.kind == StageKind::Extract) blow_record(s.blow).uplift_m = uplift();
+  if (s.blow > 0) blow_record(s.blow).wall_s += stage_wall_;
+  wall_done_ += stage_wall_;
+  stage_wall_ = 0;
+  in_stage_ = false;
+  next_stage_ = k + 1;
+  record(true);
+  // snapshot + checkpoint of the stage end
+  const std::string name = stage_name(k);
+  const ParticleSnapshot snap = sim_.snapshot();
+  write_snapshot_h5(out_ + "/stages/" + name + ".h5", snap);
+  series_.add("stages/" + name + ".h5", snap);
+  series_.write();
+  last_checkpoint_ = out_ + "/checkpoints/" + name + ".h5";
+  write_checkpoint_h5(last_checkpoint_, checkpoint());
+  write_tables(wall_done_);
+}
+
+void DropSequence::run_stage(int k, const std::function<bool()>& keep_going, bool& stopped) {
+  const Stage& s = stages_[k];
+  const ScheduleSpec& sch = cfg_.schedule;
+  const double w0 = wall_now();
+  const double wall_before = stage_wall_;
+  if (!in_stage_) {
+    in_stage_ = true;
+    stage_t0_ = sim_.time();
+    switch (s.kind) {
+      case StageKind::Relax: sim_.set_damping(sch.damping); break;
+      case StageKind::Impact: begin_impact(s); break;
+      case StageKind::Extract: sim_.remove_body(); sim_.set_damping(sch.damping); break;
+      case StageKind::Backfill: backfill(s); break;
+    }
+  }
+  const double duration = s.kind == StageKind::Relax     ? sch.relax_time
+                          : s.kind == StageKind::Extract ? sch.extract_time
+                          : s.kind == StageKind::Backfill ? sch.settle_time
+                                                          : 0.0;
+  for (;;) {
+    bool more;
+    if (s.kind == StageKind::Impact) {
+      more = impact_step();
+    } else {
+      more = sim_.time() - stage_t0_ < duration * (1.0 - 1e-12);
+      if (more) sim_.step();
+    }
+    stage_wall_ = wall_before + (wall_now() - w0);
+    record(false);
+    progress(k, false);
+    if (!more) break;
+    if (keep_going && !keep_going()) {
+      stopped = true;
+      return;
+    }
+  }
+  end_stage(k);
+}
+
+bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) {
+  if (next_stage_ == 0 && !in_stage_) record(true);
+  while (next_stage_ < static_cast<int>(stages_.size())) {
+    const int k = next_stage_;
+    bool stopped = false;
+    try {
+      run_stage(k, keep_going, stopped);
+    } catch (const RunFailure&) {
+      write_tables(wall_done_ + stage_wall_);
+      throw;
+    }
+    if (stopped) {
+      last_checkpoint_ = out_ + "/checkpoints/interrupted.h5";
+      write_checkpoint_h5(last_checkpoint_, checkpoint());
+      write_tables(wall_done_ + stage_wall_);
+      return false;
+    }
+    progress(k, true);
+    if (stop_after >= 0 && k >= stop_after) return next_stage_ >= static_cast<int>(stages_.size());
+  }
+  return true;
+}
+
+double DropSequence::uplift() const {
+  // Highest soil (not aggregate) surface beside the pounder: columns of width dp outside
+  // the pounder's widest radius, out to half the model radius; surface = top centre + dp/2.
+  const HostParticles hp = host_particles(sim_);
+  const double dp = cfg_.sph.spacing;
+  double r_out = 0;
+  for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
+  const double r_in = 0.5 * cfg_.pounder.max_diameter;
+  double top = -1e300;
+  for (size_t i = 0; i < hp.r.size(); ++i) {
+    if (hp.material[i] == backfill_material_) continue;
+    if (hp.r[i] >= r_in && hp.r[i] <= 0.5 * r_out) top = std::max(top, hp.z[i] + 0.5 * dp);
+  }
+  return top - ground_;
+}
+
+ColumnSummary DropSequence::column() const {
+  ColumnSummary c;
+  if (backfill_material_ < 0) return c;
+  const HostParticles hp = host_particles(sim_);
+  const double dp = cfg_.sph.spacing;
+  double z_top = -1e300, z_bot = 1e300;
+  for (size_t i = 0; i < hp.r.size(); ++i)
+    if (hp.material[i] == backfill_material_) {
+      z_top = std::max(z_top, hp.z[i]);
+      z_bot = std::min(z_bot, hp.z[i]);
+      c.aggregate_kg += hp.mass[i];
+    }
+  if (z_bot > z_top) return c;
+  // bands of one spacing from the top of the aggregate down; diameter = 2 (max r + dp/2)
+  const int nb = static_cast<int>(std::floor((z_top - z_bot) / dp)) + 1;
+  std::vector<double> rmax(nb, -1.0);
+  for (size_t i = 0; i < hp.r.size(); ++i)
+    if (hp.material[i] == backfill_material_) {
+      const int b = std::min(nb - 1, static_cast<int>(std::floor((z_top + 0.5 * dp - hp.z[i]) / dp)));
+      rmax[b] = std::max(rmax[b], hp.r[i]);
+    }
+  for (int b = 0; b < nb; ++b) {
+    if (rmax[b] < 0) continue;
+    const double zc = z_top - b * dp;
+    c.rows.push_back({ground_ - zc, 2.0 * (rmax[b] + 0.5 * dp)});
+  }
+  c.length_m = (std::min(z_top + 0.5 * dp, ground_)) - (z_bot - 0.5 * dp);
+  // head and base: mean diameter of the top / bottom 30 mm (at least one band)
+  const double band = std::max(0.03, dp);
+  double hs = 0, bs = 0;
+  int hn = 0, bn = 0;
+  for (const auto& r : c.rows) {
+    c.max_diameter_m = std::max(c.max_diameter_m, r.diameter_m);
+    if (ground_ - r.depth_m >= z_top - band + 1e-12) { hs += r.diameter_m; ++hn; }
+    if (ground_ - r.depth_m <= z_bot + band - 1e-12) { bs += r.diameter_m; ++bn; }
+  }
+  c.head_diameter_m = hn ? hs / hn : 0.0;
+  c.base_diameter_m = bn ? bs / bn : 0.0;
+  return c;
+}
+
+void DropSequence::write_tables(double wall_s) const {
+  std::vector<std::vector<double>> rows;
+  for (const auto& b : blows_)
+    rows.push_back({double(b.blow), b.drop_height_m, b.crater_depth_m, b.penetration_m, b.peak_deceleration_m_s2,
+                    b.uplift_m, b.aggregate_added_kg, b.wall_s});
+  write_csv(out_ + "/blows.csv",
+            {"blow", "drop_height_m", "crater_depth_m", "penetration_m", "peak_deceleration_m_s2", "uplift_m",
+             "aggregate_added_kg", "wall_s"},
+            rows);
+  std::vector<std::string> th{"time_s", "blow", "stage"};
+  for (const auto& t : cfg_.tracers) {
+    th.push_back(t.name + "_dz_m");
+    th.push_back(t.name + "_dr_m");
+  }
+  write_csv(out_ + "/tracers.csv", th, tracer_rows_);
+  write_csv(out_ + "/pounder.csv", {"time_s", "blow", "base_z_m", "v_z_m_s", "a_z_m_s2", "force_z_N"}, pounder_rows_);
+  write_csv(out_ + "/energy.csv",
+            {"time_s", "kinetic_J", "internal_J", "potential_J", "pounder_J", "contact_J", "total_J"}, energy_rows_);
+  if (next_stage_ < static_cast<int>(stages_.size())) return;
+  const ColumnSummary c = column();
+  std::vector<std::vector<double>> crow;
+  for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m});
+  write_csv(out_ + "/column.csv", {"depth_m", "diameter_m"}, crow);
+  int completed = 0;
+  for (const auto& b : blows_) completed += b.crater_depth_m != 0.0 ? 1 : 0;
+  std::ofstream js(out_ + "/summary.json");
+  char buf[2048];
+  std::snprintf(buf, sizeof buf,
+                "{\n  \"column_length_m\": %.6g,\n  \"head_diameter_m\": %.6g,\n  \"max_diameter_m\": %.6g,\n"
+                "  \"base_diameter_m\": %.6g,\n  \"uplift_m\": %.6g,\n  \"aggregate_total_kg\": %.6g,\n"
+                "  \"blows_completed\": %d,\n  \"steps\": %ld,\n  \"wall_s\": %.3f,\n  \"particles\": %d,\n"
+                "  \"simulated_time_s\": %.6g,\n  \"spacing_m\": %.6g\n}\n",
+                c.length_m, c.head_diameter_m, c.max_diameter_m, c.base_diameter_m, uplift(), c.aggregate_kg, completed,
+                sim_.steps(), wall_s, sim_.particle_count(), sim_.time(), cfg_.sph.spacing);
+  js << buf;
+}
+
+}  // namespace tamp

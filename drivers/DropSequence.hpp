@@ -1,0 +1,114 @@
+// The stage sequencer of a dynamic-replacement run: a thin host loop over the stages of
+// the deck's [schedule] (docs/drop-sequence.md):
+//   relax            damped relaxation of the initial (geostatic) state
+//   impact  (blow)   the pounder placed just above the crater floor with the speed of free
+//                    fall from the drop height; undamped until the pounder is at rest
+//                    (|v| < rest_speed for rest_hold), then rest_time of damped settling
+//   extract (blow)   the pounder lifted out; extract_time of damped settling
+//   backfill(blow)   aggregate particles created in the crater without overlap (up to the
+//                    ground level, or a given mass), then settle_time of damped settling
+// Every stage ends with a particle snapshot and a checkpoint; a run can resume from any.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+#include "core/Config.hpp"
+#include "core/Output.hpp"
+#include "drivers/Simulation.hpp"
+
+namespace tamp {
+
+struct BlowRecord {
+  int blow = 0;
+  double drop_height_m = 0;
+  double crater_depth_m = 0;           // original ground level - pounder base at rest
+  double penetration_m = 0;            // pounder base at first contact - at rest
+  double peak_deceleration_m_s2 = 0;   // largest upward acceleration of the pounder
+  double uplift_m = 0;                 // largest heave of the soil surface beside the pounder
+  double aggregate_added_kg = 0;       // charge poured after this blow
+  double wall_s = 0;                   // wall time of this blow's stages
+};
+
+struct ColumnRow {
+  double depth_m;     // below the original ground level, centre of the band
+  double diameter_m;  // of the aggregate body in the band
+};
+
+struct ColumnSummary {
+  double length_m = 0, head_diameter_m = 0, max_diameter_m = 0, base_diameter_m = 0;
+  double aggregate_kg = 0;
+  std::vector<ColumnRow> rows;
+};
+
+enum class StageKind { Relax, Impact, Extract, Backfill };
+
+struct Stage {
+  StageKind kind;
+  int blow;  // 1-based; 0 for relax
+};
+
+class DropSequence {
+ public:
+  // `out` is the result folder (exists); outputs and checkpoints go there.
+  DropSequence(Simulation& sim, const Config& cfg, std::string out);
+
+  const std::vector<Stage>& stages() const { return stages_; }
+  std::string stage_name(int k) const;
+  int next_stage() const { return next_stage_; }
+  const std::vector<BlowRecord>& blows() const { return blows_; }
+
+  // Resume from a checkpoint written by this class (stage end or interruption).
+  void restore(const Checkpoint& c);
+
+  // Runs the remaining stages. Stops after stage `stop_after` (0-based) if >= 0, or when
+  // `keep_going` returns false (checked every step; the state is then checkpointed to
+  // checkpoints/interrupted.h5). Returns true when every stage is done. Throws RunFailure
+  // (NaN, collapsing step) after writing what is known so far.
+  bool run(int stop_after = -1, const std::function<bool()>& keep_going = {});
+
+  // Writes blows.csv, tracers.csv, pounder.csv, energy.csv and, when every stage is done,
+  // column.csv and summary.json.
+  void write_tables(double wall_s) const;
+  ColumnSummary column() const;
+  double uplift() const;
+  std::string last_checkpoint() const { return last_checkpoint_; }
+
+ private:
+  void run_stage(int k, const std::function<bool()>& keep_going, bool& stopped);
+  void begin_impact(const Stage& s);
+  bool impact_step();       // false when the stage is done
+  void backfill(const Stage& s);
+  void end_stage(int k);
+  void record(bool force);  // tracer, pounder and energy rows
+  void progress(int k, bool force);
+  Checkpoint checkpoint();
+  double surface_under_pounder() const;
+  BlowRecord& blow_record(int blow);
+
+  Simulation& sim_;
+  Config cfg_;
+  std::string out_;
+  std::vector<Stage> stages_;
+  int next_stage_ = 0;
+  double ground_ = 0;        // m, original ground level
+  int backfill_material_ = -1;
+  // stage-internal state (saved with an interrupted stage)
+  bool in_stage_ = false;
+  double stage_t0_ = 0, rest_since_ = -1, z_start_ = 0, peak_dec_ = 0;
+  int phase_ = 0;            // impact: 0 moving, 1 damped rest
+  double stage_wall_ = 0;    // wall seconds of the current blow so far
+  std::vector<BlowRecord> blows_;
+  std::vector<int> tracer_index_;
+  std::vector<double> tracer_r0_, tracer_z0_;
+  std::vector<std::vector<double>> tracer_rows_, pounder_rows_, energy_rows_;
+  double next_record_ = 0;
+  double wall_done_ = 0;     // wall seconds of finished stages (this and earlier runs)
+  std::string last_checkpoint_;
+  XdmfSeries series_;
+  double last_progress_wall_ = 0;
+};
+
+// Reads the restart file of `tamp run --restart` for a drop sequence.
+bool is_drop_sequence_checkpoint(const Checkpoint& c);
+
+}  // namespace tamp

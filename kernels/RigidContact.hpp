@@ -1,0 +1,211 @@
+// Rigid bodies of revolution and their penalty contact with SPH particles.
+//
+// A body is a closed polygon in its own (r, z) half-plane (the meridian section), placed
+// at an offset (r0, z0) and moving with a velocity (v_r, v_z). Edges on the axis (r = 0 at
+// both ends) close the polygon but are not surfaces. For every particle the exact signed
+// distance d to the polygon's surface edges and the outward normal n are computed; a
+// particle of spacing dp touches the body when d < dp/2 (its half spacing: the particle
+// stands for a cell dp wide). The penetration g = dp/2 - d gives, per unit ring mass,
+//   normal:   a_n = max(0, kappa g - 2 xi sqrt(kappa) v_n),  kappa = s c^2 / dp^2
+//   friction: a_t = min(mu a_n, |v_t| / dt) against the sliding direction,
+//             mu = FD + (FS - FD) exp(-DC |v_t|)  (LS-DYNA's friction law)
+// with c the particle material's P-wave speed: the contact is as stiff as one particle
+// spacing of the soil itself (s = 1), so it keeps the SPH time step stable (omega dt = s^0.5
+// c dt / dp < 1) while the penetration under the pounder's weight stays ~1e-3 dp. The
+// friction is capped at the value that stops relative sliding within one step (stick).
+// The reaction on the body is minus the sum of the particle forces (docs/contact.md).
+#pragma once
+#include "core/Material.hpp"
+#include "core/Particles.hpp"
+
+namespace tamp {
+
+constexpr int max_profile_vertices = 48;
+
+struct RigidProfile {
+  double r[max_profile_vertices];  // m, body frame, counter-clockwise in (r, z)
+  double z[max_profile_vertices];
+  int count = 0;
+  double r_min = 0, r_max = 0, z_min = 0, z_max = 0;  // bounding box, m
+
+  // Call after filling r, z: the bounding box.
+  void finish() {
+    r_min = 1e300; r_max = 0; z_min = 1e300; z_max = -1e300;
+    for (int k = 0; k < count; ++k) {
+      r_min = r[k] < r_min ? r[k] : r_min;
+      r_max = r[k] > r_max ? r[k] : r_max;
+      z_min = z[k] < z_min ? z[k] : z_min;
+      z_max = z[k] > z_max ? z[k] : z_max;
+    }
+  }
+  // False when (pr, pz) is farther than `margin` from the bounding box (no contact).
+  KOKKOS_INLINE_FUNCTION bool near_box(double pr, double pz, double margin) const {
+    return pr >= r_min - margin && pr <= r_max + margin && pz >= z_min - margin && pz <= z_max + margin;
+  }
+
+  // Signed distance (> 0 outside) from (pr, pz) to the surface edges; n = outward normal.
+  KOKKOS_INLINE_FUNCTION double signed_distance(double pr, double pz, double& nr, double& nz) const {
+    double best = 1e300, bnr = 0, bnz = 1;
+    bool inside = false, on_edge = false;
+    for (int k = 0; k < count; ++k) {
+      const int k2 = (k + 1) % count;
+      const double ar = r[k], az = z[k], br = r[k2], bz = z[k2];
+      // crossing test (ray in +r) over every edge, the axis edges included
+      if ((az > pz) != (bz > pz)) {
+        const double rc = ar + (pz - az) * (br - ar) / (bz - az);
+        if (pr < rc) inside = !inside;
+      }
+      if (ar == 0.0 && br == 0.0) continue;  // the axis: not a surface
+      const double er = br - ar, ez = bz - az;
+      const double len2 = er * er + ez * ez;
+      double t = len2 > 0 ? ((pr - ar) * er + (pz - az) * ez) / len2 : 0.0;
+      t = t < 0 ? 0 : (t > 1 ? 1 : t);
+      const double cr = ar + t * er, cz = az + t * ez;
+      const double dr = pr - cr, dz = pz - cz;
+      const double d2 = dr * dr + dz * dz;
+      if (d2 < best) {
+        best = d2;
+        const double d = math::sqrt(d2);
+        on_edge = !(d > 1e-12);
+        if (!on_edge) {
+          bnr = dr / d;
+          bnz = dz / d;
+        } else {  // on the edge: its outward normal (counter-clockwise polygon)
+          const double l = math::sqrt(len2);
+          bnr = ez / l;
+          bnz = -er / l;
+        }
+      }
+    }
+    const double d = math::sqrt(best);
+    // Inside, the vector from the closest point points inwards: flip it to the outward normal.
+    const bool flip = inside && !on_edge;
+    nr = flip ? -bnr : bnr;
+    nz = flip ? -bnz : bnz;
+    return inside ? -d : d;
+  }
+};
+
+// The kinematic state of one rigid body as the kernels see it.
+struct RigidBodyState {
+  RigidProfile profile;
+  double r0 = 0, z0 = 0;  // m, offset of the body frame
+  double v_r = 0, v_z = 0;  // m/s
+};
+
+struct ContactLaw {
+  double contact_distance = 0;  // m, dp / 2
+  double penalty_scale = 1.0;   // s: kappa = s c^2 / dp^2
+  double damping_ratio = 0.2;   // xi of the normal contact
+  double static_friction = 0.5; // FS
+  double dynamic_friction = 0.4;// FD
+  double decay = 0.0;           // DC, s/m
+};
+
+// Adds the contact acceleration to a and writes the force on each particle ring (N) to
+// `force` (zero when not in contact). One particle per thread, no shared writes.
+struct PenaltyContact {
+  ViewN<double, 2> x, v, a, force;
+  View1<double> mass, rho;
+  View1<int> material, flags;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
+  RigidBodyState body;
+  ContactLaw law;
+  double dt;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    force(i, 0) = 0.0;
+    force(i, 1) = 0.0;
+    if (flags(i) & FLAG_DRIVEN) return;
+    const double pr = x(i, 0) - body.r0, pz = x(i, 1) - body.z0;
+    if (!body.profile.near_box(pr, pz, law.contact_distance)) return;
+    double nr, nz;
+    const double d = body.profile.signed_distance(pr, pz, nr, nz);
+    const double g = law.contact_distance - d;
+    if (g <= 0.0) return;
+    const double dp = 2.0 * law.contact_distance;
+    const double c2 = materials(material(i)).p_wave_modulus() / rho(i);
+    const double kappa = law.penalty_scale * c2 / (dp * dp);
+    const double vr = v(i, 0) - body.v_r, vz = v(i, 1) - body.v_z;
+    const double vn = vr * nr + vz * nz;
+    double an = kappa * g - 2.0 * law.damping_ratio * math::sqrt(kappa) * vn;
+    if (an < 0.0) an = 0.0;  // no adhesion
+    const double tr = vr - vn * nr, tz = vz - vn * nz;
+    const double vt = math::sqrt(tr * tr + tz * tz);
+    double ar = an * nr, az = an * nz;
+    if (vt > 1e-14) {
+      const double mu = law.dynamic_friction +
+                        (law.static_friction - law.dynamic_friction) * math::exp(-law.decay * vt);
+      const double at = math::min(mu * an, vt / dt);
+      ar -= at * tr / vt;
+      az -= at * tz / vt;
+    }
+    a(i, 0) += ar;
+    a(i, 1) += az;
+    force(i, 0) = mass(i) * ar;
+    force(i, 1) = mass(i) * az;
+  }
+};
+
+// Sums over the real particles: the total contact force on the particles (N; the body
+// feels minus this), and the power of the contact forces relative to the body,
+// sum F_i . (v_i - V) (W; minus the rate of energy stored in or dissipated by the contact).
+struct ContactSums {
+  double force_r = 0, force_z = 0, power = 0;
+  int touching = 0;
+};
+
+inline ContactSums contact_sums(const ViewN<double, 2>& force, const ViewN<double, 2>& v, int n,
+                                double body_vr, double body_vz) {
+  using policy = Kokkos::RangePolicy<ExecSpace>;
+  ContactSums s;
+  Kokkos::parallel_reduce("tamp::contact::force_r", policy(0, n), KOKKOS_LAMBDA(int i, double& f) {
+    f += force(i, 0);
+  }, s.force_r);
+  Kokkos::parallel_reduce("tamp::contact::force_z", policy(0, n), KOKKOS_LAMBDA(int i, double& f) {
+    f += force(i, 1);
+  }, s.force_z);
+  Kokkos::parallel_reduce("tamp::contact::power", policy(0, n), KOKKOS_LAMBDA(int i, double& p) {
+    p += force(i, 0) * (v(i, 0) - body_vr) + force(i, 1) * (v(i, 1) - body_vz);
+  }, s.power);
+  Kokkos::parallel_reduce("tamp::contact::touching", policy(0, n), KOKKOS_LAMBDA(int i, int& c) {
+    c += (force(i, 0) != 0.0 || force(i, 1) != 0.0) ? 1 : 0;
+  }, s.touching);
+  return s;
+}
+
+}  // namespace tamp
+
+namespace tamp {
+
+// A barrel (the lab pounder): radius base_d/2 at the base and the top, max_d/2 at
+// mid-height, parabolic in between; base at z = 0 of the body frame.
+inline RigidProfile barrel_profile(double base_d, double max_d, double height, int segments) {
+  RigidProfile p;
+  const double rb = 0.5 * base_d, rm = 0.5 * max_d;
+  p.r[p.count] = 0.0; p.z[p.count++] = 0.0;
+  for (int k = 0; k <= segments && p.count < max_profile_vertices - 1; ++k) {
+    const double s = static_cast<double>(k) / segments;  // 0 at the base, 1 at the top
+    const double u = 2.0 * s - 1.0;
+    p.r[p.count] = rb + (rm - rb) * (1.0 - u * u);
+    p.z[p.count++] = s * height;
+  }
+  p.r[p.count] = 0.0; p.z[p.count++] = height;
+  p.finish();
+  return p;
+}
+
+// A rectangle r_min..r_max, z_min..z_max (a flat punch when r_min = 0; a ring otherwise).
+inline RigidProfile rectangle_profile(double r_min, double r_max, double z_min, double z_max) {
+  RigidProfile p;
+  const double rr[4] = {r_min, r_max, r_max, r_min}, zz[4] = {z_min, z_min, z_max, z_max};
+  for (int k = 0; k < 4; ++k) {
+    p.r[k] = rr[k];
+    p.z[k] = zz[k];
+  }
+  p.count = 4;
+  p.finish();
+  return p;
+}
+
+}  // namespace tamp

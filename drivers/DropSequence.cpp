@@ -142,7 +142,7 @@ void DropSequence::begin_impact(const Stage& s) {
   const double v0 = std::sqrt(2.0 * cfg_.gravity * fall);
   sim_.set_damping(cfg_.damping);
   sim_.place_body(0.0, z0, 0.0, -v0);
-  z_start_ = z0;
+  z_start_ = sim_.body().contact.touching > 0 ? z0 : 1e300;  // set at the first contact
   peak_dec_ = 0;
   rest_since_ = -1;
   phase_ = 0;
@@ -155,6 +155,7 @@ bool DropSequence::impact_step() {
   sim_.step();
   const RigidBody& b = sim_.body();
   const double t = sim_.time() - stage_t0_;
+  if (z_start_ > 1e299 && b.contact.touching > 0) z_start_ = b.z0;  // first contact
   if (phase_ == 0) {
     peak_dec_ = std::max(peak_dec_, b.a_z);  // upward acceleration = deceleration of the fall
     if (std::fabs(b.v_z) < sch.rest_speed && t > sch.rest_hold) {
@@ -350,7 +351,7 @@ void DropSequence::end_stage(int k) {
     BlowRecord& rec = blow_record(s.blow);
     const RigidBody& b = sim_.body();
     rec.crater_depth_m = ground_ - b.z0;
-    rec.penetration_m = z_start_ - b.z0;
+    rec.penetration_m = z_start_ < 1e299 ? z_start_ - b.z0 : 0.0;
     rec.peak_deceleration_m_s2 = peak_dec_;
   }
   if (s.kind == StageKind::Extract) blow_record(s.blow).uplift_m = uplift();

@@ -22,7 +22,7 @@ struct BlowRecord {
   int blow = 0;
   double drop_height_m = 0;
   double crater_depth_m = 0;           // original ground level - pounder base at rest
-  double penetration_m = 0;            // pounder base at first contact - at rest
+  double penetration_m = 0;            // pounder base at its first contact - at rest
   double peak_deceleration_m_s2 = 0;   // largest upward acceleration of the pounder
   double uplift_m = 0;                 // largest heave of the soil surface beside the pounder
   double aggregate_added_kg = 0;       // charge poured after this blow

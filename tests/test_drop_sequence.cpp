@@ -1,0 +1,166 @@
+// The staged drop sequence (issue: main job, verification 4 and 5) on the CI-sized
+// scenario examples/ci-drop.toml: 3 blows and 1 backfill of the lab pounder.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/Deck.hpp"
+#include "core/Log.hpp"
+#include "drivers/DropSequence.hpp"
+
+using namespace tamp;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string deck_path = std::string(TAMP_SOURCE_DIR) + "/examples/ci-drop.toml";
+
+std::string fresh_dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("tamp_test_" + name);
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+
+std::vector<std::vector<double>> read_csv(const std::string& path, std::vector<std::string>* header = nullptr) {
+  std::ifstream in(path);
+  REQUIRE(in.good());
+  std::string line;
+  std::getline(in, line);
+  if (header) {
+    std::stringstream hs(line);
+    std::string h;
+    while (std::getline(hs, h, ',')) header->push_back(h);
+  }
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::stringstream ls(line);
+    std::string cell;
+    std::vector<double> row;
+    while (std::getline(ls, cell, ',')) row.push_back(std::stod(cell));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+double json_number(const std::string& path, const std::string& key) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  const auto at = text.find("\"" + key + "\":");
+  REQUIRE(at != std::string::npos);
+  return std::stod(text.substr(at + key.size() + 3));
+}
+
+struct RunResult {
+  std::vector<BlowRecord> blows;
+  ParticleSnapshot final_state;
+};
+
+// Runs the deck in `dir`, from `restart` if given, stopping after stage `stop_after`.
+RunResult run_deck(const std::string& dir, int stop_after = -1, const std::string& restart = "") {
+  const Config cfg = load_deck(deck_path);
+  Simulation sim(cfg);
+  DropSequence seq(sim, cfg, dir);
+  if (!restart.empty()) seq.restore(read_checkpoint_h5(restart));
+  seq.run(stop_after);
+  return {seq.blows(), sim.snapshot()};
+}
+
+}  // namespace
+
+TEST_CASE("Drop sequence: the CI scenario writes every output with sane values, and restarts exactly",
+          "[drop-sequence][verification]") {
+  log::set_level(log::Level::Quiet);
+  const std::string a = fresh_dir("drop_full");
+  const RunResult full = run_deck(a);
+
+  // Every output file.
+  for (const char* f : {"blows.csv", "column.csv", "summary.json", "tracers.csv", "pounder.csv", "energy.csv",
+                        "stages.xdmf", "stages/000-relax.h5", "checkpoints/007-backfill-blow03.h5"})
+    CHECK(fs::exists(fs::path(a) / f));
+
+  // blows.csv: crater deeper after each blow (no backfill until blow 3), positive
+  // penetration and deceleration, the charge after blow 3 only.
+  std::vector<std::string> header;
+  const auto blows = read_csv(a + "/blows.csv", &header);
+  REQUIRE(blows.size() == 3);
+  CHECK(header == std::vector<std::string>{"blow", "drop_height_m", "crater_depth_m", "penetration_m",
+                                           "peak_deceleration_m_s2", "uplift_m", "aggregate_added_kg", "wall_s"});
+  for (size_t b = 0; b < 3; ++b) {
+    std::printf("[drop] blow %zu: H %.2f m, crater %.4f m, penetration %.4f m, peak deceleration %.1f m/s2, uplift %.4f m, "
+                "aggregate %.3f kg\n",
+                b + 1, blows[b][1], blows[b][2], blows[b][3], blows[b][4], blows[b][5], blows[b][6]);
+    CHECK(blows[b][3] > 0.0);
+    CHECK(blows[b][4] > 9.81);  // the pounder was stopped: more than g upwards at some time
+    CHECK(blows[b][5] >= 0.0);
+    CHECK(blows[b][5] < 0.1);
+    if (b > 0) CHECK(blows[b][2] > blows[b - 1][2]);
+  }
+  CHECK(blows[0][6] == 0.0);
+  CHECK(blows[1][6] == 0.0);
+  CHECK(blows[2][6] > 0.0);
+
+  // summary.json: the aggregate mass equals what was added (and what the particles hold).
+  const std::string summary = a + "/summary.json";
+  const double added = blows[2][6];
+  double in_particles = 0;
+  const int aggregate = 2;  // materials: sand, clay, aggregate
+  for (size_t i = 0; i < full.final_state.size(); ++i)
+    if (full.final_state.material[i] == aggregate) in_particles += full.final_state.mass[i];
+  std::printf("[drop] aggregate: added %.6f kg, in summary %.6f kg, in particles %.6f kg; column %.3f m long, "
+              "diameters head %.3f / max %.3f / base %.3f m\n",
+              added, json_number(summary, "aggregate_total_kg"), in_particles, json_number(summary, "column_length_m"),
+              json_number(summary, "head_diameter_m"), json_number(summary, "max_diameter_m"),
+              json_number(summary, "base_diameter_m"));
+  CHECK(json_number(summary, "aggregate_total_kg") == Approx(added).epsilon(1e-5));  // JSON has 6 digits
+  CHECK(in_particles == Approx(added).epsilon(1e-12));
+  CHECK(json_number(summary, "blows_completed") == 3);
+  // The column fills the crater of blow 3: as long as its depth (within one spacing), as
+  // wide as the pounder (90-100 mm, within a spacing either way).
+  const double dp = 0.015;
+  CHECK(std::fabs(json_number(summary, "column_length_m") - blows[2][2]) < dp);
+  for (const char* k : {"head_diameter_m", "max_diameter_m", "base_diameter_m"}) {
+    CHECK(json_number(summary, k) > 0.09 - dp);
+    CHECK(json_number(summary, k) < 0.10 + 2 * dp);
+  }
+  const auto column = read_csv(a + "/column.csv");
+  CHECK(column.size() >= 5);
+
+  // Restart (tolerance 1e-12 relative, issue): stop after stage 3 (impact of blow 2),
+  // restart from its checkpoint in a new folder, finish; the blows and the final particle
+  // state must equal the uninterrupted run's. Every kernel sums in a fixed order, so the
+  // difference expected is exactly zero.
+  const std::string b = fresh_dir("drop_part");
+  (void)run_deck(b, 3);
+  CHECK_FALSE(fs::exists(fs::path(b) / "summary.json"));  // not finished
+  const std::string c = fresh_dir("drop_rest");
+  const RunResult resumed = run_deck(c, -1, b + "/checkpoints/003-impact-blow02.h5");
+  REQUIRE(resumed.blows.size() == full.blows.size());
+  double worst = 0;
+  auto rel = [](double x, double y) { return std::fabs(x - y) / std::max(1e-300, std::max(std::fabs(x), std::fabs(y))); };
+  for (size_t k = 0; k < full.blows.size(); ++k) {
+    const BlowRecord &x = full.blows[k], &y = resumed.blows[k];
+    for (auto [p, q] : {std::pair{x.crater_depth_m, y.crater_depth_m}, {x.penetration_m, y.penetration_m},
+                        {x.peak_deceleration_m_s2, y.peak_deceleration_m_s2}, {x.uplift_m, y.uplift_m},
+                        {x.aggregate_added_kg, y.aggregate_added_kg}})
+      if (p != 0 || q != 0) worst = std::max(worst, rel(p, q));
+  }
+  REQUIRE(resumed.final_state.size() == full.final_state.size());
+  double scale = 0, diff = 0;
+  for (size_t i = 0; i < full.final_state.size(); ++i) {
+    scale = std::max(scale, std::fabs(full.final_state.z[i]));
+    diff = std::max(diff, std::fabs(full.final_state.z[i] - resumed.final_state.z[i]));
+    diff = std::max(diff, std::fabs(full.final_state.r[i] - resumed.final_state.r[i]));
+  }
+  std::printf("[drop] restart from stage 3: worst relative difference of the blow results %.3g, of the final "
+              "positions %.3g\n",
+              worst, diff / scale);
+  CHECK(worst < 1e-12);
+  CHECK(diff / scale < 1e-12);
+  log::set_level(log::Level::Info);
+}

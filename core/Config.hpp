@@ -45,6 +45,14 @@ struct MaterialSpec {
   double phi_deg = 0;             // friction angle, degrees, [0, 90)
   double psi_deg = 0;             // dilation angle, degrees, [0, phi]
   double tension_cutoff = 0;      // Pa, >= 0
+  // effects (models/Effects.hpp, docs/effects.md); defaults = off
+  double crush_pressure = 0;      // Pa, compaction starts above this mean pressure
+  double crush_hardening = 0;     // Pa per unit compaction strain
+  double air_voids = 0;           // -, largest compaction strain
+  double rate_coefficient = 0;    // -, strength gain per decade of shear strain rate
+  double reference_strain_rate = 1.0; // 1/s
+  double remoulded_ratio = 1.0;   // -, remoulded / intact strength
+  double remoulding_strain = 1.0; // -, plastic shear strain at 95 % of the loss
 };
 
 struct BlockSpec {

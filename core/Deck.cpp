@@ -490,6 +490,23 @@ MaterialSpec read_material(const Table& m, const std::vector<MaterialSpec>& earl
                            "0 <= psi_deg <= phi_deg (= " + fmt_num(mat.phi_deg) + ") (deg)");
   }
   mat.tension_cutoff = number(m, "tension_cutoff", 0, ge(0), "Pa");
+  // effects (docs/effects.md): only for the plastic models
+  static const char* effect_keys[] = {"crush_pressure", "crush_hardening", "air_voids", "rate_coefficient",
+                                      "reference_strain_rate", "remoulded_ratio", "remoulding_strain"};
+  if (mat.model == "elastic")
+    for (const char* key : effect_keys)
+      if (const auto* n = m.find(key))
+        m.rep().bad(m.path(key), *n, "is an effect of the plastic models", "model \"mohr-coulomb\" or \"tresca\"");
+  mat.crush_pressure = number(m, "crush_pressure", mat.crush_pressure, ge(0), "Pa");
+  mat.crush_hardening = number(m, "crush_hardening", mat.crush_hardening, ge(0), "Pa");
+  mat.air_voids = number(m, "air_voids", mat.air_voids, ge_lt(0, 1), "");
+  if (mat.crush_pressure > 0 && mat.air_voids <= 0)
+    m.rep().bad(m.path("crush_pressure"), *m.find("crush_pressure"), "needs air_voids > 0",
+                "air_voids in (0, 1): the largest compaction strain");
+  mat.rate_coefficient = number(m, "rate_coefficient", mat.rate_coefficient, ge(0), "");
+  mat.reference_strain_rate = number(m, "reference_strain_rate", mat.reference_strain_rate, gt(0), "1/s");
+  mat.remoulded_ratio = number(m, "remoulded_ratio", mat.remoulded_ratio, gt_le(0, 1), "");
+  mat.remoulding_strain = number(m, "remoulding_strain", mat.remoulding_strain, gt(0), "");
   return mat;
 }
 
@@ -663,7 +680,8 @@ Config build(const toml::table& root, const std::string& label) {
   for (std::size_t i = 0; i < mats.size(); ++i) {
     const Table m(rep, *mats[i], "materials[" + std::to_string(i) + "]",
                   {"name", "model", "density", "unit_weight", "G", "nu", "c", "Su", "phi_deg",
-                   "psi_deg", "tension_cutoff"});
+                   "psi_deg", "tension_cutoff", "crush_pressure", "crush_hardening", "air_voids",
+                   "rate_coefficient", "reference_strain_rate", "remoulded_ratio", "remoulding_strain"});
     cfg.materials.push_back(read_material(m, cfg.materials));
   }
   const auto blocks = table_array(top, "blocks");
@@ -833,6 +851,17 @@ std::string to_toml(const Config& c) {
       o << "psi_deg = " << fmt_float(m.psi_deg) << "\n";
     }
     o << "tension_cutoff = " << fmt_float(m.tension_cutoff) << "  # Pa\n";
+    if (m.model != "elastic") {
+      if (m.crush_pressure != 0 || m.air_voids != 0 || m.crush_hardening != 0)
+        o << "crush_pressure = " << fmt_float(m.crush_pressure) << "  # Pa\ncrush_hardening = "
+          << fmt_float(m.crush_hardening) << "  # Pa\nair_voids = " << fmt_float(m.air_voids) << "\n";
+      if (m.rate_coefficient != 0 || m.reference_strain_rate != 1.0)
+        o << "rate_coefficient = " << fmt_float(m.rate_coefficient) << "\nreference_strain_rate = "
+          << fmt_float(m.reference_strain_rate) << "  # 1/s\n";
+      if (m.remoulded_ratio != 1.0 || m.remoulding_strain != 1.0)
+        o << "remoulded_ratio = " << fmt_float(m.remoulded_ratio) << "\nremoulding_strain = "
+          << fmt_float(m.remoulding_strain) << "\n";
+    }
   }
   for (const auto& b : c.blocks) {
     o << "\n[[blocks]]\n";

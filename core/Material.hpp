@@ -21,6 +21,19 @@ struct MaterialParams {
   double tension_cutoff = 0;  // Pa, largest allowed mean stress (tension positive), >= 0;
                               // for phi > 0 the apex c cot(phi) applies if smaller
 
+  // Effects added to Mohr-Coulomb / Tresca (models/Effects.hpp, docs/effects.md); each is
+  // off at its default.
+  double crush_pressure = 0;        // (a) compaction: mean pressure p_c0 where the porous
+                                    //     soil starts to crush, Pa (0 = off)
+  double crush_hardening = 0;       //     H: p_c = p_c0 + H eps_v^p, Pa
+  double air_voids = 0;             //     largest compaction strain eps_v^p (the air-void
+                                    //     volume fraction), -
+  double rate_coefficient = 0;      // (b) rate: beta in c = c0 (1 + beta log10(gdot/gdot_ref))
+                                    //     for gdot > gdot_ref (0 = off)
+  double reference_strain_rate = 1; //     gdot_ref, 1/s
+  double remoulded_ratio = 1;       // (c) remoulding: delta = c_remoulded / c0 (1 = off)
+  double remoulding_strain = 1;     //     eps_95: plastic shear strain at 95 % of the loss
+
   KOKKOS_INLINE_FUNCTION double p_wave_modulus() const {
     return bulk_modulus + 4.0 / 3.0 * shear_modulus;
   }

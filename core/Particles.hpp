@@ -34,6 +34,7 @@ struct Particles {
   ViewN<double, 3> pair_stress;   // mp sigma / rho^2 (rr, zz, rz): a particle's share of the
                                   // symmetric pair term, precomputed once per step
   View1<double> plastic_strain;   // accumulated equivalent plastic shear strain, -
+  View1<double> compaction;       // plastic volumetric (compaction) strain, effect (a), -
   View1<double> internal_energy;  // specific internal energy (strain + dissipated), J/kg
   View1<double> du_visc;          // rate of viscous heating, W/kg
   View1<double> hoop_factor;      // chi: the hoop terms use chi / r (kernels/SphSolid.hpp)
@@ -57,7 +58,7 @@ inline void Particles::reserve(int new_capacity) {
   grow(mass, "mass"); grow(planar_mass, "planar_mass"); grow(rho, "rho");
   grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
   grow(pair_stress, "pair_stress");
-  grow(plastic_strain, "plastic_strain"); grow(internal_energy, "internal_energy");
+  grow(plastic_strain, "plastic_strain"); grow(compaction, "compaction"); grow(internal_energy, "internal_energy");
   grow(du_visc, "du_visc"); grow(hoop_factor, "hoop_factor"); grow(material, "material"); grow(flags, "flags");
   grow(ghost_source, "ghost_source");
   capacity = new_capacity;

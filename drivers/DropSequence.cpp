@@ -361,6 +361,7 @@ void DropSequence::end_stage(int k) {
   in_stage_ = false;
   next_stage_ = k + 1;
   record(true);
+  if (!stage_files_) return;
   // snapshot + checkpoint of the stage end
   const std::string name = stage_name(k);
   const ParticleSnapshot snap = sim_.snapshot();
@@ -514,18 +515,70 @@ void DropSequence::write_tables(double wall_s) const {
   std::vector<std::vector<double>> crow;
   for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m});
   write_csv(out_ + "/column.csv", {"depth_m", "diameter_m"}, crow);
+  std::ofstream js(out_ + "/summary.json");
+  js << "{\n";
+  const auto items = summary(wall_s);
+  for (size_t k = 0; k < items.size(); ++k) {
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "  \"%s\": %.9g%s\n", items[k].first.c_str(), items[k].second,
+                  k + 1 < items.size() ? "," : "");
+    js << buf;
+  }
+  js << "}\n";
+}
+
+std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s) const {
+  const ColumnSummary c = column();
   int completed = 0;
   for (const auto& b : blows_) completed += b.crater_depth_m != 0.0 ? 1 : 0;
-  std::ofstream js(out_ + "/summary.json");
-  char buf[2048];
-  std::snprintf(buf, sizeof buf,
-                "{\n  \"column_length_m\": %.6g,\n  \"head_diameter_m\": %.6g,\n  \"max_diameter_m\": %.6g,\n"
-                "  \"base_diameter_m\": %.6g,\n  \"uplift_m\": %.6g,\n  \"aggregate_total_kg\": %.6g,\n"
-                "  \"blows_completed\": %d,\n  \"steps\": %ld,\n  \"wall_s\": %.3f,\n  \"particles\": %d,\n"
-                "  \"simulated_time_s\": %.6g,\n  \"spacing_m\": %.6g\n}\n",
-                c.length_m, c.head_diameter_m, c.max_diameter_m, c.base_diameter_m, uplift(), c.aggregate_kg, completed,
-                sim_.steps(), wall_s, sim_.particle_count(), sim_.time(), cfg_.sph.spacing);
-  js << buf;
+  return {{"column_length_m", c.length_m},
+          {"head_diameter_m", c.head_diameter_m},
+          {"max_diameter_m", c.max_diameter_m},
+          {"base_diameter_m", c.base_diameter_m},
+          {"uplift_m", uplift()},
+          {"aggregate_total_kg", c.aggregate_kg},
+          {"blows_completed", double(completed)},
+          {"steps", double(sim_.steps())},
+          {"wall_s", wall_s},
+          {"particles", double(sim_.particle_count())},
+          {"simulated_time_s", sim_.time()},
+          {"spacing_m", cfg_.sph.spacing},
+          {"heave_volume_m3", heave_volume()},
+          {"aggregate_volume_below_ground_m3", aggregate_volume_below_ground()}};
+}
+
+double DropSequence::heave_volume() const {
+  // Soil surface (top particle centre + dp/2 in columns of width dp, aggregate excluded)
+  // above the ground level, integrated over rings outside the pounder's widest radius.
+  const HostParticles hp = host_particles(sim_);
+  const double dp = cfg_.sph.spacing;
+  double r_out = 0;
+  for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
+  const int nb = static_cast<int>(std::ceil(r_out / dp)) + 2;
+  std::vector<double> top(nb, -1e300);
+  for (size_t i = 0; i < hp.r.size(); ++i) {
+    if (hp.material[i] == backfill_material_) continue;
+    const int k = std::min(nb - 1, static_cast<int>(hp.r[i] / dp));
+    top[k] = std::max(top[k], hp.z[i] + 0.5 * dp);
+  }
+  const double r_in = 0.5 * cfg_.pounder.max_diameter;
+  double v = 0;
+  for (int k = 0; k < nb; ++k) {
+    const double rc = (k + 0.5) * dp;
+    if (rc < r_in || top[k] < -1e299) continue;
+    v += 2.0 * pi * rc * dp * std::max(0.0, top[k] - ground_);
+  }
+  return v;
+}
+
+double DropSequence::aggregate_volume_below_ground() const {
+  if (backfill_material_ < 0) return 0.0;
+  const HostParticles hp = host_particles(sim_);
+  const double dp = cfg_.sph.spacing;
+  double v = 0;
+  for (size_t i = 0; i < hp.r.size(); ++i)
+    if (hp.material[i] == backfill_material_ && hp.z[i] < ground_) v += 2.0 * pi * std::max(hp.r[i], 0.5 * dp) * dp * dp;
+  return v;
 }
 
 }  // namespace tamp

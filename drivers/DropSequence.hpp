@@ -10,6 +10,7 @@
 // Every stage ends with a particle snapshot and a checkpoint; a run can resume from any.
 #pragma once
 #include <functional>
+#include <utility>
 #include <string>
 #include <vector>
 #include "core/Config.hpp"
@@ -70,8 +71,16 @@ class DropSequence {
   // column.csv and summary.json.
   void write_tables(double wall_s) const;
   ColumnSummary column() const;
+  // The keys of summary.json (numbers), e.g. for the closed loop (drivers/Loop.hpp).
+  std::vector<std::pair<std::string, double>> summary(double wall_s) const;
+  // Volume balance (the trace of compaction): heave volume of the soil surface above the
+  // ground level, and the volume of the aggregate below it, m3.
+  double heave_volume() const;
+  double aggregate_volume_below_ground() const;
   double uplift() const;
   std::string last_checkpoint() const { return last_checkpoint_; }
+  // false: no per-stage snapshots and checkpoints (forward runs of a calibration)
+  void set_stage_files(bool on) { stage_files_ = on; }
 
  private:
   void run_stage(int k, const std::function<bool()>& keep_going, bool& stopped);
@@ -106,6 +115,7 @@ class DropSequence {
   std::string last_checkpoint_;
   XdmfSeries series_;
   double last_progress_wall_ = 0;
+  bool stage_files_ = true;
 };
 
 // Reads the restart file of `tamp run --restart` for a drop sequence.

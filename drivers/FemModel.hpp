@@ -58,6 +58,7 @@ class FemModel {
     mesh_.stress = ViewN<double, 4>("fem::stress", ne);
     mesh_.strain_rate = ViewN<double, 4>("fem::strain_rate", ne);
     mesh_.plastic_strain = View1<double>("fem::plastic_strain", ne);
+    mesh_.compaction = View1<double>("fem::compaction", ne);
     mesh_.elem_mass = View1<double>("fem::elem_mass", ne);
     mesh_.volume = View1<double>("fem::volume", ne);
     mesh_.hourglass_force = ViewN<double, 2>("fem::hourglass_force", ne);
@@ -237,7 +238,7 @@ class FemModel {
     pass.x = mesh_.x; pass.v = mesh_.v; pass.conn = mesh_.conn;
     pass.material = mesh_.material; pass.materials = mesh_.materials;
     pass.stress = mesh_.stress; pass.strain_rate = mesh_.strain_rate;
-    pass.plastic_strain = mesh_.plastic_strain; pass.elem_mass = mesh_.elem_mass;
+    pass.plastic_strain = mesh_.plastic_strain; pass.compaction = mesh_.compaction; pass.elem_mass = mesh_.elem_mass;
     pass.volume = mesh_.volume; pass.internal_energy = mesh_.internal_energy;
     pass.hourglass_energy = mesh_.hourglass_energy;
     pass.hourglass_force = mesh_.hourglass_force;

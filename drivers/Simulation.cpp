@@ -15,6 +15,13 @@ MaterialParams make_material(const MaterialSpec& s) {
   m.phi = s.phi_deg * pi / 180.0;
   m.psi = s.psi_deg * pi / 180.0;
   m.tension_cutoff = s.tension_cutoff;
+  m.crush_pressure = s.crush_pressure;
+  m.crush_hardening = s.crush_hardening;
+  m.air_voids = s.air_voids;
+  m.rate_coefficient = s.rate_coefficient;
+  m.reference_strain_rate = s.reference_strain_rate;
+  m.remoulded_ratio = s.remoulded_ratio;
+  m.remoulding_strain = s.remoulding_strain;
   return m;
 }
 
@@ -169,6 +176,7 @@ void Simulation::build_particles() {
   Kokkos::deep_copy(P.sigma, 0.0);
   Kokkos::deep_copy(P.art_stress, 0.0);
   Kokkos::deep_copy(P.plastic_strain, 0.0);
+  Kokkos::deep_copy(P.compaction, 0.0);
   Kokkos::deep_copy(P.internal_energy, 0.0);
   Kokkos::deep_copy(P.du_visc, 0.0);
   Kokkos::deep_copy(P.hoop_factor, 1.0);
@@ -280,7 +288,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   const double dp = config_.sph.spacing, r_floor = 1e-3 * dp;
   auto x = P.x; auto v = P.v; auto a = P.a; auto a_ext = P.a_ext; auto vp = P.v_prescribed; auto xr = P.x_ref;
   auto t0 = P.traction0; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho; auto sigma = P.sigma;
-  auto R = P.art_stress; auto eps = P.plastic_strain; auto u = P.internal_energy; auto du = P.du_visc;
+  auto R = P.art_stress; auto eps = P.plastic_strain; auto ev = P.compaction; auto u = P.internal_energy; auto du = P.du_visc;
   auto chi = P.hoop_factor; auto mat = P.material; auto flags = P.flags;
   auto mats = materials_;
   double added = 0;
@@ -299,17 +307,14 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
                             rho(i) = rho0;
                             mass(i) = rho0 * 2.0 * pi * r * dp * dp;
                             mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
-                            eps(i) = 0; u(i) = 0; du(i) = 0; chi(i) = 1.0;
+                            eps(i) = 0; ev(i) = 0; u(i) = 0; du(i) = 0; chi(i) = 1.0;
                             mat(i) = hm_dev(k); flags(i) = 0;
                             m_sum += mass(i);
                           },
                           added);
   P.n_real = n1;
   P.n_total = n1;
-  refresh_neighbours(true);
-  ensure_pair_storage();
-  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       PairKernelFactors{P.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+  rebuild_lists();
   update_pair_stress();
   compute_acceleration();
   return added;
@@ -343,6 +348,20 @@ void Simulation::step(double dt_override) {
     std::ostringstream msg;
     msg << "time step collapsed to " << dt << " s at t = " << time_ << " s, step " << steps_
         << " (a NaN or an exploding velocity in the particles)";
+    // name the worst particle: the first non-finite one, else the fastest
+    const ParticleSnapshot snap = snapshot();
+    int worst = -1;
+    double vmax = -1;
+    for (size_t i = 0; i < snap.size(); ++i) {
+      const double v2 = snap.v_r[i] * snap.v_r[i] + snap.v_z[i] * snap.v_z[i];
+      const bool bad = !std::isfinite(v2) || !std::isfinite(snap.r[i]) || !std::isfinite(snap.s_zz[i]);
+      if (bad) { worst = static_cast<int>(i); break; }
+      if (v2 > vmax) { vmax = v2; worst = static_cast<int>(i); }
+    }
+    if (worst >= 0)
+      msg << "; worst particle " << worst << " (material " << snap.material[worst] << ") at r = " << snap.r[worst]
+          << " m, z = " << snap.z[worst] << " m, v = (" << snap.v_r[worst] << ", " << snap.v_z[worst]
+          << ") m/s, density " << snap.density[worst] << " kg/m3";
     throw RunFailure(msg.str());
   }
   dt_ = dt;
@@ -366,7 +385,7 @@ void Simulation::step(double dt_override) {
   refresh_neighbours(false);
 
   ensure_pair_storage();
-  StrainRateAndStress rates{P.x, P.v, P.hoop_factor, pair_f_, P.mass, P.rho, P.plastic_strain, P.internal_energy,
+  StrainRateAndStress rates{P.x, P.v, P.hoop_factor, pair_f_, P.mass, P.rho, P.plastic_strain, P.compaction, P.internal_energy,
                             P.sigma, P.art_stress, P.material, neighbours_.offsets,
                             neighbours_.neighbours, materials_, sph_, dt};
   Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);
@@ -542,8 +561,16 @@ void get_rows(const Array& in, const std::string& name, const V& view, int n) {
 }
 }  // namespace
 
-Checkpoint Simulation::save_state() {
+void Simulation::rebuild_lists() {
   refresh_neighbours(true);
+  ensure_pair_storage();
+  // the pair kernel factors follow the new list (compute_acceleration reads them)
+  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
+                       PairKernelFactors{particles_.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+}
+
+Checkpoint Simulation::save_state() {
+  rebuild_lists();
   const Particles& P = particles_;
   const int n = P.n_real;
   Checkpoint c;
@@ -557,6 +584,7 @@ Checkpoint Simulation::save_state() {
   put_rows(P.rho, n, c.reals["rho"]);
   put_rows(P.sigma, n, c.reals["sigma"]);
   put_rows(P.plastic_strain, n, c.reals["plastic_strain"]);
+  put_rows(P.compaction, n, c.reals["compaction"]);
   put_rows(P.internal_energy, n, c.reals["internal_energy"]);
   put_rows(P.du_visc, n, c.reals["du_visc"]);
   put_rows(P.material, n, c.ints["material"]);
@@ -618,6 +646,8 @@ void Simulation::load_state(const Checkpoint& c) {
   get_rows(real("rho"), "rho", P.rho, n_new);
   get_rows(real("sigma"), "sigma", P.sigma, n_new);
   get_rows(real("plastic_strain"), "plastic_strain", P.plastic_strain, n_new);
+  if (c.reals.count("compaction")) get_rows(real("compaction"), "compaction", P.compaction, n_new);
+  else Kokkos::deep_copy(P.compaction, 0.0);
   get_rows(real("internal_energy"), "internal_energy", P.internal_energy, n_new);
   get_rows(real("du_visc"), "du_visc", P.du_visc, n_new);
   get_rows(integer("material"), "material", P.material, n_new);
@@ -643,12 +673,9 @@ void Simulation::load_state(const Checkpoint& c) {
   contact_power_ = optional("contact_power", 0.0);
   dt_ = optional("last_dt", 0.0);
   refresh_planar_mass();
-  refresh_neighbours(true);
-  ensure_pair_storage();
   // pair quantities of the restored state; the stored accelerations are kept (they were
   // computed with the half-step velocities, which a full-step state cannot reproduce)
-  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       PairKernelFactors{P.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+  rebuild_lists();
   update_pair_stress();
 }
 

@@ -129,6 +129,7 @@ class Simulation {
   void build_materials();
   void build_particles();
   void refresh_neighbours(bool force);
+  void rebuild_lists();  // forced neighbour rebuild + pair kernel factors
   void compute_acceleration();
   void ensure_pair_storage();
   void update_pair_stress();

@@ -15,12 +15,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
 #include "core/Output.hpp"
 #include "drivers/DropSequence.hpp"
+#include "drivers/Loop.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace fs = std::filesystem;
@@ -245,6 +247,92 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
   return 0;
 }
 
+std::vector<std::string> split_list(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+int cmd_compare(const std::string& data_path, const std::string& run_dir) {
+  const tamp::ObservationSet data = tamp::load_observations(data_path);
+  const tamp::RunOutputs run = tamp::read_run_dir(run_dir);
+  const auto res = tamp::residuals(data, run);
+  std::cout << "data: " << data_path << "\nrun:  " << run_dir << "\n\n" << tamp::residual_table(res);
+  std::ofstream(run_dir + "/residuals.json") << tamp::residuals_json(res);
+  std::cout << "written: " << run_dir << "/residuals.json\n";
+  return 0;
+}
+
+int cmd_calibrate(const std::string& data_path, const std::string& params, const std::string& out, bool force,
+                  int iterations) {
+  const tamp::ObservationSet data = tamp::load_observations(data_path);
+  const Config cfg = load_deck(data.scenario);
+  if (fs::exists(out) && !force) {
+    tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
+    return 2;
+  }
+  fs::create_directories(out);
+  tamp::CalibrateOptions opt;
+  opt.scratch = out + "/scratch";
+  opt.max_iterations = iterations;
+  const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
+  const tamp::FitResult f = tamp::calibrate(cfg, data, names, opt);
+  std::ostringstream js;
+  js << "{\n  \"parameters\": {";
+  for (size_t j = 0; j < f.names.size(); ++j) {
+    js << (j ? ", " : "") << "\"" << f.names[j] << "\": {\"value\": " << f.values[j] << ", \"sigma\": " << f.sigmas[j] << "}";
+    std::cout << f.names[j] << " = " << f.values[j] << " +- " << f.sigmas[j] << "\n";
+  }
+  js << "},\n  \"chi2\": " << f.chi2 << ",\n  \"error\": " << f.error << ",\n  \"runs\": " << f.runs << "\n}\n";
+  std::ofstream(out + "/calibration.json") << js.str();
+  std::ofstream(out + "/residuals.json") << tamp::residuals_json(f.residuals);
+  std::cout << tamp::residual_table(f.residuals) << "forward runs: " << f.runs << "; written: " << out << "/calibration.json\n";
+  return 0;
+}
+
+int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
+                 int iterations) {
+  const tamp::ObservationSet data = tamp::load_observations(data_path);
+  if (fs::exists(out) && !force) {
+    tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
+    return 2;
+  }
+  tamp::DiagnoseOptions opt;
+  opt.baseline_params = split_list(params);
+  opt.fit.max_iterations = iterations;
+  const std::string selected = tamp::diagnose(data, out, opt);
+  std::cout << "selected_effect: " << selected << "\n";
+  return 0;
+}
+
+int cmd_synth(const std::string& deck, const std::string& effect, const std::vector<std::string>& sets,
+              const std::string& material, double noise, unsigned seed, const std::string& out, bool force) {
+  Config cfg = load_deck(deck);
+  if (!cfg.schedule.enabled) throw std::invalid_argument(deck + " has no [schedule]: synthetic data need a drop sequence");
+  if (fs::exists(out) && !force) {
+    tamp::log::error("data file '" + out + "' exists; pass --force to overwrite it");
+    return 2;
+  }
+  std::map<std::string, double> overrides;
+  for (const auto& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos) throw std::invalid_argument("--set '" + s + "': expected KEY=VALUE, e.g. clay.Su=12000");
+    overrides[s.substr(0, eq)] = std::stod(s.substr(eq + 1));
+  }
+  tamp::apply_effect(cfg, material, effect, overrides);
+  std::string description = "effect " + effect;
+  for (const auto& [k, v] : overrides) description += ", " + k + " = " + std::to_string(v);
+  // the data file refers to the deck relative to its own folder
+  const fs::path out_dir = fs::absolute(out).parent_path();
+  const std::string rel = fs::relative(fs::absolute(deck), out_dir).string();
+  tamp::synthesise(cfg, rel, material, noise, seed, out, out + ".scratch", description);
+  fs::remove_all(out + ".scratch");
+  std::cout << "written: " << out << " (" << description << ")\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -265,6 +353,35 @@ int main(int argc, char** argv) {
                   "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
+  std::string data_path, run_dir, params, effect = "none", material = "clay";
+  std::vector<std::string> sets;
+  double noise = 0.02;
+  unsigned seed = 1;
+  int iterations = 8;
+  auto* compare = app.add_subcommand("compare", "Residuals of a finished run against measured data");
+  compare->add_option("data", data_path, "Data file (TOML), e.g. data/lab-observations.toml")->required();
+  compare->add_option("--run", run_dir, "Result folder of a finished tamp run")->required();
+  auto* calibrate = app.add_subcommand("calibrate", "Fit parameters of the data file's scenario (Levenberg-Marquardt)");
+  calibrate->add_option("data", data_path, "Data file (TOML)")->required();
+  calibrate->add_option("--params", params, "Comma-separated parameters, e.g. clay.Su,clay.G (default <target>.Su)");
+  calibrate->add_option("--out", out, "Result folder")->required();
+  calibrate->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations (default 8)");
+  calibrate->add_flag("--force", force, "Overwrite an existing result folder");
+  auto* diagnose = app.add_subcommand("diagnose", "Calibrate the baseline, refit with each catalogued effect, rank by BIC");
+  diagnose->add_option("data", data_path, "Data file (TOML)")->required();
+  diagnose->add_option("--params", params, "Baseline parameters (default <target>.Su)");
+  diagnose->add_option("--out", out, "Result folder (diagnosis.json, report.md)")->required();
+  diagnose->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations per fit (default 8)");
+  diagnose->add_flag("--force", force, "Overwrite an existing result folder");
+  auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
+  synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
+  synth->add_option("--effect", effect, "none, compaction, rate or remoulding (default none)");
+  synth->add_option("--set", sets, "KEY=VALUE parameter overrides, e.g. clay.Su=12000 or crush_pressure=20000");
+  synth->add_option("--material", material, "Material the effect applies to (default clay)");
+  synth->add_option("--noise", noise, "Relative noise (default 0.02)");
+  synth->add_option("--seed", seed, "Random seed (default 1)");
+  synth->add_option("--out", out, "Data file to write")->required();
+  synth->add_flag("--force", force, "Overwrite an existing data file");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -277,6 +394,10 @@ int main(int argc, char** argv) {
   try {
     if (*run) rc = cmd_run(deck, out, force, restart, stop_after);
     if (*check) rc = cmd_check(deck);
+    if (*compare) rc = cmd_compare(data_path, run_dir);
+    if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations);
+    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations);
+    if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());
     rc = 2;

@@ -47,6 +47,7 @@ struct FemMesh {
   ViewN<double, 4> stress;                // Pa (rr, zz, tt, rz)
   ViewN<double, 4> strain_rate;           // last step's rate of deformation, 1/s
   View1<double> plastic_strain;           // accumulated equivalent plastic strain
+  View1<double> compaction;               // plastic volumetric strain of effect (a), -
   View1<double> elem_mass;                // rho0 V0, kg (constant)
   View1<double> volume;                   // current ring volume, m3
   ViewN<double, 2> hourglass_force;       // generalised hourglass force Q (r, z), N
@@ -208,7 +209,7 @@ struct QuadElementPass {
   View1<int> material;
   Kokkos::View<MaterialParams*, MemSpace> materials;
   ViewN<double, 4> stress, strain_rate;
-  View1<double> plastic_strain, elem_mass, volume, internal_energy, hourglass_energy;
+  View1<double> plastic_strain, compaction, elem_mass, volume, internal_energy, hourglass_energy;
   ViewN<double, 2> hourglass_force;
   ForceScatter f_scatter;
   double dt = 0;       // this step, x^n -> x^{n+1}
@@ -250,8 +251,9 @@ struct QuadElementPass {
       const double deps[4] = {d_rr * dt, d_zz * dt, d_tt * dt, d_rz * dt};
       double s[4], s_old[4];
       for (int c = 0; c < 4; ++c) s[c] = s_old[c] = stress(e, c);
-      double ep = plastic_strain(e);
-      update_stress(m, s, deps, 0.5 * (l_rz - l_zr) * dt, ep);
+      double ep = plastic_strain(e), ev = compaction(e);
+      update_stress(m, s, deps, 0.5 * (l_rz - l_zr) * dt, ep, ev, dt);
+      compaction(e) = ev;
       double work = 0;
       for (int c = 0; c < 3; ++c) work += 0.5 * (s_old[c] + s[c]) * deps[c];
       work += (s_old[RZ] + s[RZ]) * deps[RZ];

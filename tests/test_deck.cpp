@@ -549,3 +549,50 @@ TEST_CASE("Deck: initial_stress takes zero or geostatic", "[deck]") {
   p.top = "initial_stress = \"k0\"\n";
   require_error(p.text(), {"deck.toml", "initial_stress", "k0", "geostatic"});
 }
+
+TEST_CASE("Deck: the drop-sequence sections parse, validate and round-trip", "[deck]") {
+  const std::string lab = std::string(TAMP_SOURCE_DIR) + "/examples/lab-test.toml";
+  const Config c = tamp::load_deck(lab);
+  CHECK(c.schedule.enabled);
+  CHECK(c.schedule.drop_heights.size() == 36);
+  CHECK(c.schedule.backfill_after.size() == 21);
+  CHECK(c.pounder.mass == 10.55);
+  CHECK(c.pounder.max_diameter == 0.1);
+  CHECK(c.contact.static_friction == 0.5);
+  CHECK(c.contact.dynamic_friction == 0.4);
+  CHECK(c.backfill.material == "aggregate");
+  CHECK(c.tracers.size() == 2);
+  const Config d = parse_deck(to_toml(c), "round-trip.toml");
+  CHECK(d.schedule.drop_heights == c.schedule.drop_heights);
+  CHECK(d.schedule.backfill_after == c.schedule.backfill_after);
+  CHECK(d.schedule.drop_height_from == c.schedule.drop_height_from);
+  CHECK(d.pounder.height == c.pounder.height);
+  CHECK(d.contact.decay == c.contact.decay);
+  CHECK(d.backfill.mode == c.backfill.mode);
+  REQUIRE(d.tracers.size() == 2);
+  CHECK(d.tracers[1].name == c.tracers[1].name);
+  CHECK(d.tracers[1].r == c.tracers[1].r);
+
+  const std::string pounder = "[pounder]\nmass = 10\nbase_diameter = 0.09\nmax_diameter = 0.1\nheight = 0.2\n";
+  Parts p;
+  p.rest = "[schedule]\ndrop_heights = [0.3, -0.5]\n" + pounder;
+  require_error(p.text(), {"deck.toml", "schedule.drop_heights[1]", "-0.5", "out of range", "value > 0"});
+  p.rest = "[schedule]\ndrop_heights = [0.3, 0.5]\nbackfill_after = [2, 1]\n" + pounder;
+  require_error(p.text(), {"schedule.backfill_after[1]", "increasing"});
+  p.rest = "[schedule]\ndrop_heights = [0.3, 0.5]\nbackfill_after = [3]\n" + pounder;
+  require_error(p.text(), {"schedule.backfill_after[0]", "<= 2"});
+  p.rest = "[schedule]\ndrop_heights = [0.3]\nbackfill_after = [1]\n" + pounder;
+  require_error(p.text(), {"schedule.backfill_after", "[backfill]"});
+  p.rest = "[schedule]\ndrop_heights = [0.3]\n";
+  require_error(p.text(), {"pounder", "missing", "mass"});
+  p.rest = pounder;
+  require_error(p.text(), {"pounder", "only used with a [schedule]"});
+  p.rest = "[schedule]\ndrop_heights = [0.3]\n" + pounder + "profile_segment = 3\n";
+  require_error(p.text(), {"pounder.profile_segment", "not a known key", "profile_segments"});
+  p.rest = "[contact]\nstatic_friction = 0.3\ndynamic_friction = 0.4\n";
+  require_error(p.text(), {"contact.dynamic_friction", "0.4", "dynamic_friction <= static_friction"});
+  p.rest = "[backfill]\nmaterial = \"gravel\"\n";
+  require_error(p.text(), {"backfill.material", "gravel", "not a known material"});
+  p.rest = "[[tracers]]\nname = \"a,b\"\nr = 0\nz = 0\n";
+  require_error(p.text(), {"tracers[0].name", "without commas"});
+}

@@ -1,0 +1,145 @@
+// Data files of the closed loop: TOML -> ObservationSet (validated), and back.
+#include "core/Observations.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "core/Deck.hpp"
+#include "core/Format.hpp"
+
+namespace tamp {
+
+const std::vector<std::string>& summary_quantities() {
+  static const std::vector<std::string> q{"column_length_m", "head_diameter_m", "max_diameter_m", "base_diameter_m",
+                                          "uplift_m", "aggregate_total_kg", "blows_completed"};
+  return q;
+}
+
+const std::vector<std::string>& per_blow_quantities() {
+  static const std::vector<std::string> q{"crater_depth_m", "penetration_m", "peak_deceleration_m_s2", "uplift_m",
+                                          "aggregate_added_kg"};
+  return q;
+}
+
+namespace {
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
+  return s;
+}
+
+bool contains(const std::vector<std::string>& v, const std::string& x) {
+  for (const auto& e : v)
+    if (e == x) return true;
+  return false;
+}
+
+}  // namespace
+
+ObservationSet load_observations(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (!fs::exists(path)) throw DeckError(path + ": the data file does not exist");
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw DeckError(path + ": TOML syntax error at line " + std::to_string(e.source().begin.line) + ": " +
+                    std::string(e.description()));
+  }
+  auto bad = [&](const std::string& key, const std::string& value, const std::string& problem, const std::string& allowed) {
+    throw DeckError(path + ": " + key + " = " + value + " " + problem + "; allowed: " + allowed);
+  };
+  for (const auto& [k, v] : root)
+    if (k.str() != "scenario" && k.str() != "observations" && k.str() != "target_material")
+      bad(std::string(k.str()), "...", "is not a known key", "scenario, target_material, observations");
+  ObservationSet set;
+  set.file = path;
+  const auto scen = root["scenario"].value<std::string>();
+  if (!scen) throw DeckError(path + ": scenario is missing; required: the path of the scenario deck (relative to this file)");
+  set.scenario_as_written = *scen;
+  const fs::path sp(*scen);
+  set.scenario = sp.is_absolute() ? sp.string() : (fs::path(path).parent_path() / sp).lexically_normal().string();
+  if (auto t = root["target_material"].value<std::string>()) set.target_material = *t;
+  const auto* arr = root["observations"].as_array();
+  if (!arr || arr->empty()) throw DeckError(path + ": observations is missing; required: at least one [[observations]] entry");
+  for (size_t i = 0; i < arr->size(); ++i) {
+    const std::string p = "observations[" + std::to_string(i) + "]";
+    const auto* t = arr->get(i)->as_table();
+    if (!t) bad(p, "...", "has the wrong type", "a table ([[observations]])");
+    for (const auto& [k, v] : *t) {
+      const std::string key(k.str());
+      if (key != "quantity" && key != "blow" && key != "value" && key != "sigma" && key != "range" && key != "source")
+        bad(p + "." + key, "...", "is not a known key", "quantity, blow, value, sigma, range, source");
+    }
+    Observation o;
+    const auto q = (*t)["quantity"].value<std::string>();
+    if (!q) throw DeckError(path + ": " + p + ".quantity is missing; required: one of " + join(summary_quantities()) +
+                            " or, with blow = N, " + join(per_blow_quantities()));
+    o.quantity = *q;
+    if (const auto* b = t->get("blow")) {
+      const auto bi = b->value<int64_t>();
+      if (!bi || *bi < 1) bad(p + ".blow", "...", "is out of range", "an integer >= 1");
+      o.blow = static_cast<int>(*bi);
+      if (!contains(per_blow_quantities(), o.quantity))
+        bad(p + ".quantity", "\"" + o.quantity + "\"", "is not a per-blow quantity", join(per_blow_quantities()));
+    } else if (!contains(summary_quantities(), o.quantity)) {
+      bad(p + ".quantity", "\"" + o.quantity + "\"", "is not a known quantity",
+          join(summary_quantities()) + " (or with blow = N: " + join(per_blow_quantities()) + ")");
+    }
+    const auto* range = t->get("range");
+    const auto value = (*t)["value"].value<double>();
+    const auto sigma = (*t)["sigma"].value<double>();
+    if (range) {
+      const auto* ra = range->as_array();
+      if (!ra || ra->size() != 2 || !ra->get(0)->value<double>() || !ra->get(1)->value<double>())
+        bad(p + ".range", "...", "has the wrong form", "[low, high] with low < high");
+      o.lo = *ra->get(0)->value<double>();
+      o.hi = *ra->get(1)->value<double>();
+      if (!(o.lo < o.hi)) bad(p + ".range", "[" + fmt_num(o.lo) + ", " + fmt_num(o.hi) + "]", "is out of range", "low < high");
+      if (value || sigma) bad(p + ".value", "...", "conflicts with range", "either range = [low, high] or value and sigma");
+      o.is_range = true;
+      o.value = 0.5 * (o.lo + o.hi);
+      o.sigma = 0.5 * (o.hi - o.lo);
+    } else {
+      if (!value) throw DeckError(path + ": " + p + ".value is missing; required: value and sigma, or range = [low, high]");
+      if (!sigma) throw DeckError(path + ": " + p + ".sigma is missing; required: sigma > 0 with value");
+      if (!(*sigma > 0) || !std::isfinite(*sigma)) bad(p + ".sigma", fmt_num(*sigma), "is out of range", "sigma > 0");
+      o.value = *value;
+      o.sigma = *sigma;
+    }
+    if (auto s = (*t)["source"].value<std::string>()) o.source = *s;
+    set.observations.push_back(o);
+  }
+  return set;
+}
+
+void write_observations(const std::string& path, const ObservationSet& set, const std::string& header_comment) {
+  std::ostringstream o;
+  std::istringstream hc(header_comment);
+  for (std::string line; std::getline(hc, line);) o << "# " << line << "\n";
+  o << "scenario = \"" << set.scenario_as_written << "\"\n";
+  o << "target_material = \"" << set.target_material << "\"\n";
+  for (const auto& ob : set.observations) {
+    o << "\n[[observations]]\nquantity = \"" << ob.quantity << "\"\n";
+    if (ob.blow > 0) o << "blow = " << ob.blow << "\n";
+    char buf[128];
+    if (ob.is_range) {
+      std::snprintf(buf, sizeof buf, "range = [%.17g, %.17g]\n", ob.lo, ob.hi);
+    } else {
+      std::snprintf(buf, sizeof buf, "value = %.17g\nsigma = %.17g\n", ob.value, ob.sigma);
+    }
+    o << buf;
+    if (!ob.source.empty()) o << "source = \"" << ob.source << "\"\n";
+  }
+  std::ofstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot write the data file");
+  f << o.str();
+}
+
+}  // namespace tamp

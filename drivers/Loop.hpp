@@ -1,0 +1,97 @@
+// The closed loop with measured data (docs/closing-the-loop.md): forward runs of a
+// scenario, residuals against observations, calibration (Levenberg-Marquardt), diagnosis
+// over the effect catalogue (models/Effects.hpp) ranked by BIC, and synthetic data.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "core/Observations.hpp"
+
+namespace tamp {
+
+// What a forward run gives: the summary.json keys and the blows.csv rows.
+struct RunOutputs {
+  std::map<std::string, double> summary;
+  std::vector<std::map<std::string, double>> blows;  // index blow - 1
+};
+
+// Runs a drop-sequence deck to the end in `scratch_dir` (created, replaced) and returns
+// its outputs. Quiet (no progress lines).
+RunOutputs run_forward(const Config& cfg, const std::string& scratch_dir);
+// Reads the outputs of a finished `tamp run` folder (summary.json, blows.csv).
+RunOutputs read_run_dir(const std::string& dir);
+
+// A model parameter by name: "<material>.<key>" (key: G, nu, Su, c, phi_deg, density,
+// crush_pressure, crush_hardening, air_voids, rate_coefficient, reference_strain_rate,
+// remoulded_ratio, remoulding_strain) or "contact.<key>". Throws std::invalid_argument
+// naming the parameter and what is allowed.
+double get_param(const Config& cfg, const std::string& name);
+void set_param(Config& cfg, const std::string& name, double value);
+
+struct Residual {
+  const Observation* obs;
+  double model = 0;       // the model's value (NaN when the run has no such quantity)
+  double normalised = 0;  // (model - value) / sigma
+};
+
+std::vector<Residual> residuals(const ObservationSet& data, const RunOutputs& run);
+double rms(const std::vector<Residual>& r);  // RMS of the normalised residuals
+std::string residual_table(const std::vector<Residual>& r);  // Markdown
+std::string residuals_json(const std::vector<Residual>& r);
+
+struct FitResult {
+  std::vector<std::string> names;
+  std::vector<double> values, sigmas;  // best fit and its 1-sigma (linearised) uncertainty
+  double chi2 = 0;                     // sum of squared normalised residuals
+  double error = 0;                    // RMS of the normalised residuals
+  int runs = 0;                        // forward runs used
+  int n = 0;                           // observations
+  std::vector<Residual> residuals;
+  RunOutputs outputs;                  // of the best fit
+  double bic() const;                  // chi2 + k ln n (known uncertainties)
+};
+
+struct CalibrateOptions {
+  int max_iterations = 8;
+  double step = 0.05;      // finite-difference step in the transformed parameter (~5 %)
+  std::string scratch;     // folder for the forward runs
+  bool verbose = true;
+};
+
+// Levenberg-Marquardt over the named parameters, starting from their values in `cfg`.
+// Positive parameters are fitted in log space, remoulded_ratio in logit space.
+FitResult calibrate(const Config& cfg, const ObservationSet& data, const std::vector<std::string>& params,
+                    const CalibrateOptions& opt);
+
+// One entry of the effect catalogue, as the diagnosis tries it.
+struct EffectCandidate {
+  std::string name;                          // "compaction", "rate", "remoulding"
+  std::vector<std::pair<std::string, double>> fixed;  // keys set before the fit (material-relative)
+  std::vector<std::pair<std::string, double>> fitted; // keys fitted, with starting values
+};
+const std::vector<EffectCandidate>& effect_catalogue();
+// Sets an effect's parameters on `material` ("none" sets nothing). `overrides` (key=value,
+// material-relative keys) replace the catalogue's defaults.
+void apply_effect(Config& cfg, const std::string& material, const std::string& effect,
+                  const std::map<std::string, double>& overrides = {});
+
+struct DiagnoseOptions {
+  std::vector<std::string> baseline_params;  // default: {"<target>.Su"}
+  double bic_margin = 2.0;                   // an effect must lower BIC by more than this
+  CalibrateOptions fit;
+};
+
+// Calibrates the baseline, refits with each catalogued effect, ranks by BIC, writes
+// DIR/diagnosis.json and DIR/report.md; returns the selected effect ("none" if none earns
+// its parameters).
+std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt);
+
+// Synthetic data: runs `cfg` (with whatever effect it carries) and writes the data file
+// with relative noise `noise` (sigma = max(noise |value|, floor of the quantity)), seeded.
+void synthesise(const Config& cfg, const std::string& deck_path_as_written, const std::string& target_material,
+                double noise, unsigned seed, const std::string& out_path, const std::string& scratch_dir,
+                const std::string& description);
+
+}  // namespace tamp

@@ -1,0 +1,127 @@
+// The closed loop (issue: closing the loop): data files, residuals, and the undeclared-
+// effect tests: synthetic data made by the engine with an effect that `diagnose` is not
+// told about, on the tiny scenario examples/synthetic/tiny-drop.toml.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/Deck.hpp"
+#include "core/Log.hpp"
+#include "drivers/Loop.hpp"
+
+using namespace tamp;
+namespace fs = std::filesystem;
+
+namespace {
+const std::string tiny = std::string(TAMP_SOURCE_DIR) + "/examples/synthetic/tiny-drop.toml";
+
+std::string temp_dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("tamp_loop_" + name);
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+
+void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+std::string json_string(const std::string& path, const std::string& key) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string t = ss.str();
+  const auto at = t.find("\"" + key + "\": ");
+  REQUIRE(at != std::string::npos);
+  const auto v = at + key.size() + 4;
+  if (t[v] == '"') return t.substr(v + 1, t.find('"', v + 1) - v - 1);
+  return t.substr(v, t.find_first_of(",\n}", v) - v);
+}
+}  // namespace
+
+TEST_CASE("Loop: data files are validated and residuals are normalised by the uncertainty", "[loop]") {
+  const std::string d = temp_dir("data");
+  write(d + "/deck.toml", "# placeholder\n");
+  write(d + "/ok.toml",
+        "scenario = \"deck.toml\"\n[[observations]]\nquantity = \"uplift_m\"\nrange = [0.010, 0.014]\n"
+        "[[observations]]\nquantity = \"crater_depth_m\"\nblow = 2\nvalue = 0.1\nsigma = 0.01\n");
+  const ObservationSet set = load_observations(d + "/ok.toml");
+  REQUIRE(set.observations.size() == 2);
+  CHECK(set.scenario == (fs::path(d) / "deck.toml").string());
+  CHECK(set.observations[0].value == Approx(0.012));
+  CHECK(set.observations[0].sigma == Approx(0.002));
+  RunOutputs run;
+  run.summary["uplift_m"] = 0.016;
+  run.blows = {{{"crater_depth_m", 0.05}}, {{"crater_depth_m", 0.13}}};
+  const auto r = residuals(set, run);
+  CHECK(r[0].normalised == Approx(2.0));   // (0.016 - 0.012) / 0.002
+  CHECK(r[1].normalised == Approx(3.0));   // (0.13 - 0.1) / 0.01
+  CHECK(rms(r) == Approx(std::sqrt(6.5)));
+
+  auto require_error = [&](const std::string& text, const std::vector<std::string>& parts) {
+    write(d + "/bad.toml", text);
+    try {
+      (void)load_observations(d + "/bad.toml");
+      FAIL("no error for: " << text);
+    } catch (const DeckError& e) {
+      for (const auto& p : parts) CHECK_THAT(e.what(), Catch::Contains(p));
+    }
+  };
+  require_error("[[observations]]\nquantity = \"uplift_m\"\nvalue = 1\nsigma = 1\n", {"bad.toml", "scenario is missing"});
+  require_error("scenario = \"x\"\n[[observations]]\nquantity = \"upliftt\"\nvalue = 1\nsigma = 1\n",
+                {"observations[0].quantity", "upliftt", "not a known quantity", "uplift_m"});
+  require_error("scenario = \"x\"\n[[observations]]\nquantity = \"uplift_m\"\nvalue = 1\nsigma = 0\n",
+                {"observations[0].sigma", "sigma > 0"});
+  require_error("scenario = \"x\"\n[[observations]]\nquantity = \"uplift_m\"\nrange = [2, 1]\n",
+                {"observations[0].range", "low < high"});
+  require_error("scenario = \"x\"\n[[observations]]\nquantity = \"column_length_m\"\nblow = 3\nvalue = 1\nsigma = 1\n",
+                {"not a per-blow quantity", "crater_depth_m"});
+  // the lab data file of the repository is valid
+  const ObservationSet lab = load_observations(std::string(TAMP_SOURCE_DIR) + "/data/lab-observations.toml");
+  CHECK(lab.observations.size() == 5);
+  CHECK(fs::exists(lab.scenario));
+}
+
+namespace {
+// synth (effect on, seeded noise) -> diagnose; returns the selected effect and the errors.
+struct Outcome {
+  std::string selected;
+  double before, after;
+};
+Outcome undeclared(const std::string& name, const std::string& effect, const std::map<std::string, double>& set,
+                   unsigned seed) {
+  log::set_level(log::Level::Quiet);
+  const std::string d = temp_dir(name);
+  Config cfg = load_deck(tiny);
+  apply_effect(cfg, "clay", effect, set);
+  const std::string data = d + "/data.toml";
+  synthesise(cfg, fs::relative(tiny, d).string(), "clay", 0.02, seed, data, d + "/synth", "test " + name);
+  DiagnoseOptions opt;
+  opt.fit.verbose = false;
+  const std::string selected = diagnose(load_observations(data), d + "/diagnosis", opt);
+  const std::string js = d + "/diagnosis/diagnosis.json";
+  Outcome o{selected, std::stod(json_string(js, "error_before")), std::stod(json_string(js, "error_after"))};
+  std::printf("[loop] %s: synthetic %s -> selected '%s', error before %.3f, after %.3f\n", name.c_str(), effect.c_str(),
+              selected.c_str(), o.before, o.after);
+  log::set_level(log::Level::Info);
+  return o;
+}
+}  // namespace
+
+TEST_CASE("Loop: undeclared compaction is found and cuts the error by 3", "[loop][verification]") {
+  const Outcome o = undeclared("compaction", "compaction", {{"crush_pressure", 15e3}}, 11);
+  CHECK(o.selected == "compaction");
+  CHECK(o.after < o.before / 3);
+}
+
+TEST_CASE("Loop: an undeclared rate effect is found and cuts the error by 3", "[loop][verification]") {
+  const Outcome o = undeclared("rate", "rate", {{"rate_coefficient", 0.5}}, 12);
+  CHECK(o.selected == "rate");
+  CHECK(o.after < o.before / 3);
+}
+
+TEST_CASE("Loop: shifted baseline parameters without an effect give 'none'", "[loop][verification]") {
+  const Outcome o = undeclared("none", "none", {{"clay.Su", 12.5e3}}, 13);
+  CHECK(o.selected == "none");
+}

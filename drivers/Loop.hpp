@@ -54,14 +54,19 @@ struct FitResult {
 };
 
 struct CalibrateOptions {
-  int max_iterations = 8;
+  std::string method = "nelder-mead";  // or "lm" (Levenberg-Marquardt with Eigen)
+  int max_iterations = 8;  // LM iterations
+  int max_runs = 0;        // Nelder-Mead budget of forward runs; 0 = 12 + 20 per parameter
+  std::vector<double> simplex_steps;  // Nelder-Mead first steps in the fitted coordinate (default 0.3)
   double step = 0.05;      // finite-difference step in the transformed parameter (~5 %)
   std::string scratch;     // folder for the forward runs
   bool verbose = true;
 };
 
-// Levenberg-Marquardt over the named parameters, starting from their values in `cfg`.
-// Positive parameters are fitted in log space, remoulded_ratio in logit space.
+// Fits the named parameters, starting from their values in `cfg`: Nelder-Mead (default;
+// robust to the small jumps of a particle model's response) or Levenberg-Marquardt.
+// Positive parameters are fitted in log space, remoulded_ratio in logit space. The
+// uncertainty is linearised from a finite-difference Jacobian at the best point.
 FitResult calibrate(const Config& cfg, const ObservationSet& data, const std::vector<std::string>& params,
                     const CalibrateOptions& opt);
 
@@ -70,6 +75,7 @@ struct EffectCandidate {
   std::string name;                          // "compaction", "rate", "remoulding"
   std::vector<std::pair<std::string, double>> fixed;  // keys set before the fit (material-relative)
   std::vector<std::pair<std::string, double>> fitted; // keys fitted, with starting values
+  std::vector<double> grid;                  // profile: values of the (first) fitted key tried in turn
 };
 const std::vector<EffectCandidate>& effect_catalogue();
 // Sets an effect's parameters on `material` ("none" sets nothing). `overrides` (key=value,

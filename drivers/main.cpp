@@ -266,7 +266,7 @@ int cmd_compare(const std::string& data_path, const std::string& run_dir) {
 }
 
 int cmd_calibrate(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                  int iterations) {
+                  int iterations, const std::string& method) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
   const Config cfg = load_deck(data.scenario);
   if (fs::exists(out) && !force) {
@@ -277,6 +277,7 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
   tamp::CalibrateOptions opt;
   opt.scratch = out + "/scratch";
   opt.max_iterations = iterations;
+  opt.method = method;
   const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
   const tamp::FitResult f = tamp::calibrate(cfg, data, names, opt);
   std::ostringstream js;
@@ -358,6 +359,7 @@ int main(int argc, char** argv) {
   double noise = 0.02;
   unsigned seed = 1;
   int iterations = 8;
+  std::string method = "nelder-mead";
   auto* compare = app.add_subcommand("compare", "Residuals of a finished run against measured data");
   compare->add_option("data", data_path, "Data file (TOML), e.g. data/lab-observations.toml")->required();
   compare->add_option("--run", run_dir, "Result folder of a finished tamp run")->required();
@@ -366,6 +368,7 @@ int main(int argc, char** argv) {
   calibrate->add_option("--params", params, "Comma-separated parameters, e.g. clay.Su,clay.G (default <target>.Su)");
   calibrate->add_option("--out", out, "Result folder")->required();
   calibrate->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations (default 8)");
+  calibrate->add_option("--method", method, "nelder-mead (default) or lm");
   calibrate->add_flag("--force", force, "Overwrite an existing result folder");
   auto* diagnose = app.add_subcommand("diagnose", "Calibrate the baseline, refit with each catalogued effect, rank by BIC");
   diagnose->add_option("data", data_path, "Data file (TOML)")->required();
@@ -395,7 +398,7 @@ int main(int argc, char** argv) {
     if (*run) rc = cmd_run(deck, out, force, restart, stop_after);
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
-    if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations);
+    if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method);
     if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {

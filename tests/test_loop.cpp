@@ -96,7 +96,7 @@ Outcome undeclared(const std::string& name, const std::string& effect, const std
   Config cfg = load_deck(tiny);
   apply_effect(cfg, "clay", effect, set);
   const std::string data = d + "/data.toml";
-  synthesise(cfg, fs::relative(tiny, d).string(), "clay", 0.02, seed, data, d + "/synth", "test " + name);
+  synthesise(cfg, fs::relative(tiny, d).string(), "clay", 0.01, seed, data, d + "/synth", "test " + name);
   DiagnoseOptions opt;
   opt.fit.verbose = false;
   const std::string selected = diagnose(load_observations(data), d + "/diagnosis", opt);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "core/Log.hpp"
@@ -435,20 +436,55 @@ bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) 
   return true;
 }
 
+namespace {
+// Top of the soil (aggregate excluded) in radial columns of width dp: the highest particle
+// centre + dp/2 among the particles with at least 3 soil neighbours within 1.5 dp, so that
+// particles splashed above the crater rim (single or in short chains) do not count as ground.
+std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out) {
+  const int nb = static_cast<int>(std::ceil(r_out / dp)) + 2;
+  std::vector<double> top(nb, -1e300);
+  const double cell = 1.5 * dp;
+  std::map<std::pair<long, long>, std::vector<int>> grid;
+  for (size_t i = 0; i < hp.r.size(); ++i)
+    if (hp.material[i] != skip_material)
+      grid[{std::lround(std::floor(hp.r[i] / cell)), std::lround(std::floor(hp.z[i] / cell))}].push_back(static_cast<int>(i));
+  for (const auto& [key, members] : grid)
+    for (int i : members) {
+      int count = 0;
+      for (long a = key.first - 1; a <= key.first + 1; ++a)
+        for (long b = key.second - 1; b <= key.second + 1; ++b) {
+          const auto it = grid.find({a, b});
+          if (it == grid.end()) continue;
+          for (int j : it->second) {
+            const double dr = hp.r[j] - hp.r[i], dz = hp.z[j] - hp.z[i];
+            if (j != i && dr * dr + dz * dz < cell * cell) ++count;
+          }
+        }
+      if (count < 3) continue;
+      const int k = std::min(nb - 1, static_cast<int>(hp.r[i] / dp));
+      top[k] = std::max(top[k], hp.z[i] + 0.5 * dp);
+    }
+  return top;
+}
+}  // namespace
+
 double DropSequence::uplift() const {
-  // Highest soil (not aggregate) surface beside the pounder: columns of width dp outside
-  // the pounder's widest radius, out to half the model radius; surface = top centre + dp/2.
+  // Highest soil surface next to the column: radial columns from the column head's edge
+  // (or the pounder's widest radius, before any backfill) out 0.1 m.
   const HostParticles hp = host_particles(sim_);
   const double dp = cfg_.sph.spacing;
   double r_out = 0;
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
-  const double r_in = 0.5 * cfg_.pounder.max_diameter;
-  double top = -1e300;
-  for (size_t i = 0; i < hp.r.size(); ++i) {
-    if (hp.material[i] == backfill_material_) continue;
-    if (hp.r[i] >= r_in && hp.r[i] <= 0.5 * r_out) top = std::max(top, hp.z[i] + 0.5 * dp);
+  double r_in = 0.5 * cfg_.pounder.max_diameter;
+  const ColumnSummary c = column();
+  r_in = std::max(r_in, 0.5 * c.head_diameter_m);
+  const std::vector<double> top = soil_surface(hp, backfill_material_, dp, r_out);
+  double best = -1e300;
+  for (size_t k = 0; k < top.size(); ++k) {
+    const double rc = (k + 0.5) * dp;
+    if (rc >= r_in && rc <= r_in + 0.1) best = std::max(best, top[k]);
   }
-  return top - ground_;
+  return best - ground_;
 }
 
 ColumnSummary DropSequence::column() const {
@@ -548,22 +584,16 @@ std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s)
 }
 
 double DropSequence::heave_volume() const {
-  // Soil surface (top particle centre + dp/2 in columns of width dp, aggregate excluded)
-  // above the ground level, integrated over rings outside the pounder's widest radius.
+  // Soil surface (soil_surface) above the ground level, integrated over rings outside the
+  // pounder's widest radius.
   const HostParticles hp = host_particles(sim_);
   const double dp = cfg_.sph.spacing;
   double r_out = 0;
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
-  const int nb = static_cast<int>(std::ceil(r_out / dp)) + 2;
-  std::vector<double> top(nb, -1e300);
-  for (size_t i = 0; i < hp.r.size(); ++i) {
-    if (hp.material[i] == backfill_material_) continue;
-    const int k = std::min(nb - 1, static_cast<int>(hp.r[i] / dp));
-    top[k] = std::max(top[k], hp.z[i] + 0.5 * dp);
-  }
+  const std::vector<double> top = soil_surface(hp, backfill_material_, dp, r_out);
   const double r_in = 0.5 * cfg_.pounder.max_diameter;
   double v = 0;
-  for (int k = 0; k < nb; ++k) {
+  for (size_t k = 0; k < top.size(); ++k) {
     const double rc = (k + 0.5) * dp;
     if (rc < r_in || top[k] < -1e299) continue;
     v += 2.0 * pi * rc * dp * std::max(0.0, top[k] - ground_);
@@ -572,12 +602,12 @@ double DropSequence::heave_volume() const {
 }
 
 double DropSequence::aggregate_volume_below_ground() const {
+  // sum of m / rho of the aggregate particles below the ground level
   if (backfill_material_ < 0) return 0.0;
-  const HostParticles hp = host_particles(sim_);
-  const double dp = cfg_.sph.spacing;
+  const ParticleSnapshot s = sim_.snapshot();
   double v = 0;
-  for (size_t i = 0; i < hp.r.size(); ++i)
-    if (hp.material[i] == backfill_material_ && hp.z[i] < ground_) v += 2.0 * pi * std::max(hp.r[i], 0.5 * dp) * dp * dp;
+  for (size_t i = 0; i < s.size(); ++i)
+    if (s.material[i] == backfill_material_ && s.z[i] < ground_) v += s.mass[i] / s.density[i];
   return v;
 }
 

@@ -127,8 +127,13 @@ int cmd_check(const std::string& deck) {
 }
 
 int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart,
-            int stop_after) {
+            int stop_after, const std::vector<std::string>& sets) {
   Config cfg = load_deck(deck);  // validated before any work
+  for (const auto& s : sets) {   // --set material.key=value (e.g. clay.crush_pressure=30000)
+    const auto eq = s.find('=');
+    if (eq == std::string::npos) throw std::invalid_argument("--set '" + s + "': expected KEY=VALUE, e.g. clay.Su=12000");
+    tamp::set_param(cfg, s.substr(0, eq), std::stod(s.substr(eq + 1)));
+  }
   tamp::Checkpoint resume;
   if (!restart.empty()) {
     if (!fs::exists(restart)) {
@@ -342,6 +347,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string deck, out, restart;
   int stop_after = -1;
+  std::vector<std::string> sets;
   bool force = false;
   auto* run = app.add_subcommand("run", "Run an input deck and write the results to a folder");
   run->add_option("deck", deck, "Input deck (TOML), e.g. examples/geostatic-clay.toml")->required();
@@ -350,12 +356,12 @@ int main(int argc, char** argv) {
   run->add_option("--restart", restart,
                   "Resume from a checkpoint of an earlier run of the same deck: DIR/checkpoint.h5, or for a "
                   "drop sequence DIR/checkpoints/<stage>.h5 (any stage) or DIR/checkpoints/interrupted.h5");
+  run->add_option("--set", sets, "Override a parameter: KEY=VALUE, e.g. clay.Su=12000 or clay.crush_pressure=30000");
   run->add_option("--stop-after-stage", stop_after,
                   "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
   std::string data_path, run_dir, params, effect = "none", material = "clay";
-  std::vector<std::string> sets;
   double noise = 0.02;
   unsigned seed = 1;
   int iterations = 8;
@@ -395,7 +401,7 @@ int main(int argc, char** argv) {
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
-    if (*run) rc = cmd_run(deck, out, force, restart, stop_after);
+    if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets);
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method);

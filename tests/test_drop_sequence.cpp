@@ -11,7 +11,15 @@
 #include "core/Log.hpp"
 #include "drivers/DropSequence.hpp"
 
-using namespace tamp;
+// Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
+// CUDA math headers (nvcc).
+using tamp::BlowRecord;
+using tamp::Config;
+using tamp::DropSequence;
+using tamp::ParticleSnapshot;
+using tamp::Simulation;
+using tamp::load_deck;
+using tamp::read_checkpoint_h5;
 namespace fs = std::filesystem;
 
 namespace {
@@ -75,7 +83,7 @@ RunResult run_deck(const std::string& dir, int stop_after = -1, const std::strin
 
 TEST_CASE("Drop sequence: the CI scenario writes every output with sane values, and restarts exactly",
           "[drop-sequence][verification]") {
-  log::set_level(log::Level::Quiet);
+  tamp::log::set_level(tamp::log::Level::Quiet);
   const std::string a = fresh_dir("drop_full");
   const RunResult full = run_deck(a);
 
@@ -162,5 +170,5 @@ TEST_CASE("Drop sequence: the CI scenario writes every output with sane values, 
               worst, diff / scale);
   CHECK(worst < 1e-12);
   CHECK(diff / scale < 1e-12);
-  log::set_level(log::Level::Info);
+  tamp::log::set_level(tamp::log::Level::Info);
 }

@@ -12,7 +12,20 @@
 #include "core/Log.hpp"
 #include "drivers/Loop.hpp"
 
-using namespace tamp;
+// Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
+// CUDA math headers (nvcc).
+using tamp::Config;
+using tamp::DeckError;
+using tamp::DiagnoseOptions;
+using tamp::ObservationSet;
+using tamp::RunOutputs;
+using tamp::apply_effect;
+using tamp::diagnose;
+using tamp::load_deck;
+using tamp::load_observations;
+using tamp::residuals;
+using tamp::rms;
+using tamp::synthesise;
 namespace fs = std::filesystem;
 
 namespace {
@@ -91,7 +104,7 @@ struct Outcome {
 };
 Outcome undeclared(const std::string& name, const std::string& effect, const std::map<std::string, double>& set,
                    unsigned seed) {
-  log::set_level(log::Level::Quiet);
+  tamp::log::set_level(tamp::log::Level::Quiet);
   const std::string d = temp_dir(name);
   Config cfg = load_deck(tiny);
   apply_effect(cfg, "clay", effect, set);
@@ -104,7 +117,7 @@ Outcome undeclared(const std::string& name, const std::string& effect, const std
   Outcome o{selected, std::stod(json_string(js, "error_before")), std::stod(json_string(js, "error_after"))};
   std::printf("[loop] %s: synthetic %s -> selected '%s', error before %.3f, after %.3f\n", name.c_str(), effect.c_str(),
               selected.c_str(), o.before, o.after);
-  log::set_level(log::Level::Info);
+  tamp::log::set_level(tamp::log::Level::Info);
   return o;
 }
 }  // namespace

@@ -31,15 +31,9 @@ const char* kind_name(StageKind k) {
   }
 }
 
-// Host copies of what the stage-end measurements need.
-struct HostParticles {
-  std::vector<double> r, z, mass;
-  std::vector<int> material;
-};
-
 HostParticles host_particles(Simulation& sim) {
   const ParticleSnapshot s = sim.snapshot();
-  return {s.r, s.z, s.mass, s.material};
+  return {s.r, s.z, s.mass, s.density, s.material};
 }
 
 // Free crater sites: for each candidate (r_c, z_c), 1 if no particle lies within
@@ -61,6 +55,19 @@ struct FreeSite {
     free_flag(c) = ok;
   }
 };
+
+// Highest z of the first n particles with r < reach (device reduction). A free function:
+// nvcc does not allow extended lambdas in private member functions.
+double highest_within(const ViewN<double, 2>& x, int n, double reach) {
+  double top = -1e300;
+  Kokkos::parallel_reduce(
+      "tamp::drop::highest_within", Kokkos::RangePolicy<ExecSpace>(0, n),
+      KOKKOS_LAMBDA(int i, double& m) {
+        if (x(i, 0) < reach) m = math::max(m, x(i, 1));
+      },
+      Kokkos::Max<double>(top));
+  return top;
+}
 
 }  // namespace
 
@@ -124,12 +131,8 @@ BlowRecord& DropSequence::blow_record(int blow) {
 // Top of the particles under the pounder (centre of the highest particle whose column
 // overlaps the pounder's widest radius), m.
 double DropSequence::surface_under_pounder() const {
-  const HostParticles hp = host_particles(sim_);
-  const double reach = 0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing;
-  double top = -1e300;
-  for (size_t i = 0; i < hp.r.size(); ++i)
-    if (hp.r[i] < reach) top = std::max(top, hp.z[i]);
-  return top;
+  return highest_within(sim_.particles().x, sim_.particle_count(),
+                        0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing);
 }
 
 void DropSequence::begin_impact(const Stage& s) {
@@ -235,10 +238,11 @@ void DropSequence::record(bool force) {
   const Stage& st = stages_[std::min<int>(next_stage_, static_cast<int>(stages_.size()) - 1)];
   if (!tracer_index_.empty()) {
     std::vector<double> row{sim_.time(), double(st.blow), double(next_stage_)};
-    auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), sim_.particles().x);
-    for (size_t k = 0; k < tracer_index_.size(); ++k) {
-      row.push_back(x(tracer_index_[k], 1) - tracer_z0_[k]);
-      row.push_back(x(tracer_index_[k], 0) - tracer_r0_[k]);
+    for (size_t k = 0; k < tracer_index_.size(); ++k) {  // copy only the tracers' rows
+      const auto xk = Kokkos::create_mirror_view_and_copy(
+          HostSpace(), Kokkos::subview(sim_.particles().x, tracer_index_[k], Kokkos::ALL));
+      row.push_back(xk(1) - tracer_z0_[k]);
+      row.push_back(xk(0) - tracer_r0_[k]);
     }
     tracer_rows_.push_back(row);
   }
@@ -468,15 +472,16 @@ std::vector<double> soil_surface(const HostParticles& hp, int skip_material, dou
 }
 }  // namespace
 
-double DropSequence::uplift() const {
+double DropSequence::uplift() const { return uplift(host_particles(sim_)); }
+
+double DropSequence::uplift(const HostParticles& hp) const {
   // Highest soil surface next to the column: radial columns from the column head's edge
   // (or the pounder's widest radius, before any backfill) out 0.1 m.
-  const HostParticles hp = host_particles(sim_);
   const double dp = cfg_.sph.spacing;
   double r_out = 0;
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
   double r_in = 0.5 * cfg_.pounder.max_diameter;
-  const ColumnSummary c = column();
+  const ColumnSummary c = column(hp);
   r_in = std::max(r_in, 0.5 * c.head_diameter_m);
   const std::vector<double> top = soil_surface(hp, backfill_material_, dp, r_out);
   double best = -1e300;
@@ -487,10 +492,11 @@ double DropSequence::uplift() const {
   return best - ground_;
 }
 
-ColumnSummary DropSequence::column() const {
+ColumnSummary DropSequence::column() const { return column(host_particles(sim_)); }
+
+ColumnSummary DropSequence::column(const HostParticles& hp) const {
   ColumnSummary c;
   if (backfill_material_ < 0) return c;
-  const HostParticles hp = host_particles(sim_);
   const double dp = cfg_.sph.spacing;
   double z_top = -1e300, z_bot = 1e300;
   for (size_t i = 0; i < hp.r.size(); ++i)
@@ -564,14 +570,15 @@ void DropSequence::write_tables(double wall_s) const {
 }
 
 std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s) const {
-  const ColumnSummary c = column();
+  const HostParticles hp = host_particles(sim_);  // one host copy for every measurement
+  const ColumnSummary c = column(hp);
   int completed = 0;
   for (const auto& b : blows_) completed += b.crater_depth_m != 0.0 ? 1 : 0;
   return {{"column_length_m", c.length_m},
           {"head_diameter_m", c.head_diameter_m},
           {"max_diameter_m", c.max_diameter_m},
           {"base_diameter_m", c.base_diameter_m},
-          {"uplift_m", uplift()},
+          {"uplift_m", uplift(hp)},
           {"aggregate_total_kg", c.aggregate_kg},
           {"blows_completed", double(completed)},
           {"steps", double(sim_.steps())},
@@ -579,14 +586,15 @@ std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s)
           {"particles", double(sim_.particle_count())},
           {"simulated_time_s", sim_.time()},
           {"spacing_m", cfg_.sph.spacing},
-          {"heave_volume_m3", heave_volume()},
-          {"aggregate_volume_below_ground_m3", aggregate_volume_below_ground()}};
+          {"heave_volume_m3", heave_volume(hp)},
+          {"aggregate_volume_below_ground_m3", aggregate_volume_below_ground(hp)}};
 }
 
-double DropSequence::heave_volume() const {
+double DropSequence::heave_volume() const { return heave_volume(host_particles(sim_)); }
+
+double DropSequence::heave_volume(const HostParticles& hp) const {
   // Soil surface (soil_surface) above the ground level, integrated over rings outside the
   // pounder's widest radius.
-  const HostParticles hp = host_particles(sim_);
   const double dp = cfg_.sph.spacing;
   double r_out = 0;
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
@@ -602,12 +610,15 @@ double DropSequence::heave_volume() const {
 }
 
 double DropSequence::aggregate_volume_below_ground() const {
+  return aggregate_volume_below_ground(host_particles(sim_));
+}
+
+double DropSequence::aggregate_volume_below_ground(const HostParticles& hp) const {
   // sum of m / rho of the aggregate particles below the ground level
   if (backfill_material_ < 0) return 0.0;
-  const ParticleSnapshot s = sim_.snapshot();
   double v = 0;
-  for (size_t i = 0; i < s.size(); ++i)
-    if (s.material[i] == backfill_material_ && s.z[i] < ground_) v += s.mass[i] / s.density[i];
+  for (size_t i = 0; i < hp.r.size(); ++i)
+    if (hp.material[i] == backfill_material_ && hp.z[i] < ground_) v += hp.mass[i] / hp.density[i];
   return v;
 }
 

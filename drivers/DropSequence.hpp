@@ -41,6 +41,12 @@ struct ColumnSummary {
   std::vector<ColumnRow> rows;
 };
 
+// Host copies of what the stage-end measurements need (one copy per measurement set).
+struct HostParticles {
+  std::vector<double> r, z, mass, density;
+  std::vector<int> material;
+};
+
 enum class StageKind { Relax, Impact, Extract, Backfill };
 
 struct Stage {
@@ -92,6 +98,11 @@ class DropSequence {
   void progress(int k, bool force);
   Checkpoint checkpoint();
   double surface_under_pounder() const;
+  // The measurements from one host copy of the particles.
+  ColumnSummary column(const HostParticles& hp) const;
+  double uplift(const HostParticles& hp) const;
+  double heave_volume(const HostParticles& hp) const;
+  double aggregate_volume_below_ground(const HostParticles& hp) const;
   BlowRecord& blow_record(int blow);
 
   Simulation& sim_;

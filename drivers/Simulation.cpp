@@ -408,9 +408,9 @@ void Simulation::step(double dt_override) {
   integrate_body_half(0.5 * dt);
   if (body_.active) {
     // trapezoidal rule on the contact power, with the full-step velocities
-    const ContactSums end = contact_sums(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
-    contact_energy_ -= 0.5 * dt * (contact_power_ + end.power);
-    contact_power_ = end.power;
+    const double power = contact_power(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
+    contact_energy_ -= 0.5 * dt * (contact_power_ + power);
+    contact_power_ = power;
   } else {
     contact_power_ = 0.0;
   }

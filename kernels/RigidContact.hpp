@@ -155,6 +155,16 @@ struct ContactSums {
   int touching = 0;
 };
 
+// The power alone, sum F_i . (v_i - V), W.
+inline double contact_power(const ViewN<double, 2>& force, const ViewN<double, 2>& v, int n, double body_vr,
+                            double body_vz) {
+  double power = 0;
+  Kokkos::parallel_reduce("tamp::contact::power", Kokkos::RangePolicy<ExecSpace>(0, n), KOKKOS_LAMBDA(int i, double& p) {
+    p += force(i, 0) * (v(i, 0) - body_vr) + force(i, 1) * (v(i, 1) - body_vz);
+  }, power);
+  return power;
+}
+
 inline ContactSums contact_sums(const ViewN<double, 2>& force, const ViewN<double, 2>& v, int n,
                                 double body_vr, double body_vz) {
   using policy = Kokkos::RangePolicy<ExecSpace>;
@@ -165,9 +175,7 @@ inline ContactSums contact_sums(const ViewN<double, 2>& force, const ViewN<doubl
   Kokkos::parallel_reduce("tamp::contact::force_z", policy(0, n), KOKKOS_LAMBDA(int i, double& f) {
     f += force(i, 1);
   }, s.force_z);
-  Kokkos::parallel_reduce("tamp::contact::power", policy(0, n), KOKKOS_LAMBDA(int i, double& p) {
-    p += force(i, 0) * (v(i, 0) - body_vr) + force(i, 1) * (v(i, 1) - body_vz);
-  }, s.power);
+  s.power = contact_power(force, v, n, body_vr, body_vz);
   Kokkos::parallel_reduce("tamp::contact::touching", policy(0, n), KOKKOS_LAMBDA(int i, int& c) {
     c += (force(i, 0) != 0.0 || force(i, 1) != 0.0) ? 1 : 0;
   }, s.touching);

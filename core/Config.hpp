@@ -69,6 +69,11 @@ enum class WallType { None, Fixed, Roller, NonReflecting };
 struct WallSpec {
   WallType type = WallType::None;
   double position = 0;            // m: z of the bottom/top wall, r of the outer wall
+  // NonReflecting only: distance R (m) from the wave source to the boundary, which sets the
+  // static springs of the viscous-spring boundary, K_n = 4G/(3R), K_t = 2G/(3R) (Pa/m).
+  // < 0: automatic (the extent of the initial blocks normal to the boundary); 0: no springs
+  // (pure Lysmer-Kuhlemeyer dashpots, which let soil creep out under a lasting load).
+  double spring_distance = -1.0;
 };
 
 // Pounder <-> particle contact (kernels/RigidContact.hpp, docs/contact.md).

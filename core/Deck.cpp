@@ -545,7 +545,7 @@ WallSpec read_wall(const Table& bnd, const char* key, const char* pos_key, const
   WallSpec w;
   const toml::table* tt = sub_table(bnd, key);
   if (!tt) return w;
-  const Table t(bnd.rep(), *tt, bnd.path(key), {"type", pos_key});
+  const Table t(bnd.rep(), *tt, bnd.path(key), {"type", pos_key, "spring_distance"});
   const std::string type = choice(t, "type", {"fixed", "roller", "non-reflecting", "none"}, "wall type", std::nullopt);
   w.type = type == "fixed"            ? WallType::Fixed
            : type == "roller"         ? WallType::Roller
@@ -558,6 +558,12 @@ WallSpec read_wall(const Table& bnd, const char* key, const char* pos_key, const
       t.rep().missing(t.path(pos_key), pos_range.text(pos_key, "m") + ", the wall position, for type " + quote(type));
     else
       w.position = required_number(t, pos_key, pos_range, "m");
+  if (const toml::node* sd = t.find("spring_distance")) {
+    if (w.type != WallType::NonReflecting)
+      t.rep().bad(t.path("spring_distance"), *sd, "is set for a wall of type " + quote(type),
+                  "spring_distance only with type = \"non-reflecting\"");
+    w.spring_distance = required_number(t, "spring_distance", ge(0), "m");
+  }
   return w;
 }
 
@@ -714,6 +720,8 @@ const char* wall_name(WallType t) {
 std::string wall_text(const WallSpec& w, const char* pos_key) {
   std::string s = std::string("{ type = ") + quote(wall_name(w.type));
   if (w.type != WallType::None || w.position != 0) s += std::string(", ") + pos_key + " = " + fmt_float(w.position);
+  if (w.type == WallType::NonReflecting && w.spring_distance >= 0)
+    s += ", spring_distance = " + fmt_float(w.spring_distance);
   return s + " }";
 }
 

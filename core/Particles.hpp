@@ -11,6 +11,9 @@ namespace tamp {
 enum ParticleFlag : int {
   FLAG_NONE = 0,
   FLAG_DRIVEN = 1,  // velocity prescribed (v_prescribed), not integrated from forces
+  // Held by the k-th non-reflecting boundary (its boundary layer when the boundary stress
+  // was recorded): bit FLAG_HELD_BOUNDARY << k, k = 0 .. 3.
+  FLAG_HELD_BOUNDARY = 2,
 };
 
 struct Particles {
@@ -25,6 +28,7 @@ struct Particles {
   ViewN<double, 2> v_prescribed;  // velocity of FLAG_DRIVEN particles, m/s
   ViewN<double, 2> x_ref;         // position at the last neighbour-list build
   ViewN<double, 2> traction0;     // static traction on non-reflecting boundary particles, Pa
+  ViewN<double, 2> x_hold;        // their position when that traction was recorded, m
   View1<double> mass;             // ring mass (the whole ring of revolution), kg
   View1<double> planar_mass;      // mass / (2 pi r): mass per radian of revolution / r, kg/m
   View1<double> rho;              // density, kg/m3
@@ -54,7 +58,7 @@ inline void Particles::reserve(int new_capacity) {
       Kokkos::resize(view, new_capacity);
   };
   grow(x, "x"); grow(v, "v"); grow(a, "a"); grow(a_ext, "a_ext");
-  grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref"); grow(traction0, "traction0");
+  grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref"); grow(traction0, "traction0"); grow(x_hold, "x_hold");
   grow(mass, "mass"); grow(planar_mass, "planar_mass"); grow(rho, "rho");
   grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
   grow(pair_stress, "pair_stress");

@@ -52,7 +52,17 @@ Simulation::Simulation(const Config& config) : config_(config) {
   auto add_wall = [&](const WallSpec& w, int axis, int side) {
     if (w.type == WallType::None) return;
     if (w.type == WallType::NonReflecting) {
-      non_reflecting_.plane[non_reflecting_.count++] = MirrorPlane{axis, w.position, side, 0};
+      // Automatic spring distance: the extent of the initial blocks normal to the plane
+      // (the distance to the farthest soil, where the blows act: Deeks & Randolph's R).
+      double R = w.spring_distance;
+      if (R < 0) {
+        R = 0;
+        for (const BlockSpec& b : config_.blocks) {
+          const double lo = axis == 0 ? b.r_min : b.z_min, hi = axis == 0 ? b.r_max : b.z_max;
+          R = std::max(R, side > 0 ? hi - w.position : w.position - lo);
+        }
+      }
+      non_reflecting_.plane[non_reflecting_.count++] = MirrorPlane{axis, w.position, side, 0, R};
       return;
     }
     planes.plane[planes.count++] = MirrorPlane{axis, w.position, side, w.type == WallType::Fixed ? 1 : 0};
@@ -63,6 +73,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
 
   build_materials();
   build_particles();
+  hold_boundary_stress();  // the non-reflecting boundaries' particles (zero traction yet)
   refresh_neighbours(true);
   ensure_pair_storage();
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
@@ -214,8 +225,8 @@ void Simulation::compute_acceleration() {
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
   if (non_reflecting_.count > 0)
     Kokkos::parallel_for("tamp::non_reflecting", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                         NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.rho, P.material, materials_,
-                                               non_reflecting_, config_.sph.spacing});
+                         NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.x_hold, P.rho, P.material, P.flags,
+                                               materials_, non_reflecting_, config_.sph.spacing});
   if (body_.active) apply_contact();
 }
 
@@ -379,7 +390,7 @@ void Simulation::step(double dt_override) {
 
   MirrorPlanes walls;  // the axis and the walls: reflect particles that cross them
   walls = ghosts_.planes;
-  Drift drift{P.x, P.v, P.mass, P.planar_mass, walls, dt, 1e-3 * config_.sph.spacing};
+  Drift drift{P.x, P.v, P.mass, P.planar_mass, P.flags, walls, non_reflecting_, dt, 1e-3 * config_.sph.spacing};
   Kokkos::parallel_for("tamp::drift", reals, drift);
 
   refresh_neighbours(false);
@@ -481,22 +492,28 @@ void Simulation::set_geostatic_stress(double k0) {
 
 void Simulation::hold_boundary_stress() {
   Particles& P = particles_;
-  auto x = P.x; auto sigma = P.sigma; auto t0 = P.traction0;
+  auto x = P.x; auto sigma = P.sigma; auto t0 = P.traction0; auto xh = P.x_hold; auto flags = P.flags;
   const MirrorPlanes planes = non_reflecting_;
   const double dp = config_.sph.spacing;
   Kokkos::parallel_for("tamp::hold_boundary_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
                        KOKKOS_LAMBDA(int i) {
                          t0(i, 0) = 0.0;
                          t0(i, 1) = 0.0;
+                         xh(i, 0) = x(i, 0);
+                         xh(i, 1) = x(i, 1);
+                         int f = flags(i);
                          for (int k = 0; k < planes.count; ++k) {
+                           f &= ~(FLAG_HELD_BOUNDARY << k);
                            const MirrorPlane& pl = planes.plane[k];
                            const double d = (x(i, pl.axis) - pl.position) * pl.side;
                            if (d < 0.0 || d >= dp) continue;
+                           f |= FLAG_HELD_BOUNDARY << k;
                            // outward normal n = -side e_axis; traction on the soil t = sigma . n
                            const double sn = pl.axis == 0 ? sigma(i, 0) : sigma(i, 1);
                            t0(i, pl.axis) += -pl.side * sn;
                            t0(i, 1 - pl.axis) += -pl.side * sigma(i, 3);
                          }
+                         flags(i) = f;
                        });
 }
 
@@ -580,6 +597,7 @@ Checkpoint Simulation::save_state() {
   put_rows(P.a_ext, n, c.reals["a_ext"]);
   put_rows(P.v_prescribed, n, c.reals["v_prescribed"]);
   put_rows(P.traction0, n, c.reals["traction0"]);
+  put_rows(P.x_hold, n, c.reals["x_hold"]);
   put_rows(P.mass, n, c.reals["mass"]);
   put_rows(P.rho, n, c.reals["rho"]);
   put_rows(P.sigma, n, c.reals["sigma"]);
@@ -652,6 +670,8 @@ void Simulation::load_state(const Checkpoint& c) {
   get_rows(real("du_visc"), "du_visc", P.du_visc, n_new);
   get_rows(integer("material"), "material", P.material, n_new);
   get_rows(integer("flags"), "flags", P.flags, n_new);
+  if (c.reals.count("x_hold")) get_rows(real("x_hold"), "x_hold", P.x_hold, n_new);
+  else hold_boundary_stress();  // a checkpoint from before the springs: hold them here
   time_ = scalar("time");
   steps_ = static_cast<long>(scalar("steps"));
   sph_.gravity = gravity_at(time_);

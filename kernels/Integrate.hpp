@@ -27,24 +27,31 @@ struct Kick {
 };
 
 // x += dt v; a particle that crosses the axis or a wall is reflected back (its normal
-// velocity flips); the planar mass m / (2 pi r) follows the new radius.
+// velocity flips); the planar mass m / (2 pi r) follows the new radius. A non-reflecting
+// boundary stands for more soil, so the particles it holds may cross its plane (their
+// springs pull them back); any other particle that crosses it is reflected like at a wall,
+// so that soil cannot leak out between the held particles.
 struct Drift {
   ViewN<double, 2> x, v;
   View1<double> mass, planar_mass;
+  View1<int> flags;
   MirrorPlanes walls;
+  MirrorPlanes open_planes;  // the non-reflecting boundaries, in their flag-bit order
   double dt;
   double r_floor;  // smallest radius used for the planar mass, m
+  KOKKOS_INLINE_FUNCTION void reflect(const int i, const MirrorPlane& pl) const {
+    const double d = (x(i, pl.axis) - pl.position) * pl.side;
+    if (d < 0) {
+      x(i, pl.axis) = 2.0 * pl.position - x(i, pl.axis);
+      v(i, pl.axis) = -v(i, pl.axis);
+    }
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     x(i, 0) += dt * v(i, 0);
     x(i, 1) += dt * v(i, 1);
-    for (int k = 0; k < walls.count; ++k) {
-      const MirrorPlane& pl = walls.plane[k];
-      const double d = (x(i, pl.axis) - pl.position) * pl.side;
-      if (d < 0) {
-        x(i, pl.axis) = 2.0 * pl.position - x(i, pl.axis);
-        v(i, pl.axis) = -v(i, pl.axis);
-      }
-    }
+    for (int k = 0; k < walls.count; ++k) reflect(i, walls.plane[k]);
+    for (int k = 0; k < open_planes.count; ++k)
+      if (!(flags(i) & (FLAG_HELD_BOUNDARY << k))) reflect(i, open_planes.plane[k]);
     planar_mass(i) = mass(i) / (2.0 * pi * math::max(x(i, 0), r_floor));
   }
 };

@@ -23,6 +23,7 @@ struct MirrorPlane {
   double position = 0;   // m
   int side = 1;          // +1: domain at x[axis] > position, -1: at x[axis] < position
   int no_slip = 0;       // 1: fixed wall, 0: roller / symmetry
+  double spring_distance = 0;  // non-reflecting planes only: R of the static springs, m (0: none)
 };
 
 constexpr int max_mirror_planes = 4;

@@ -257,31 +257,39 @@ struct PairStress {
   }
 };
 
-// Non-reflecting boundary (Lysmer & Kuhlemeyer 1969): the particles within one spacing
-// of the boundary plane carry the traction of viscous dashpots,
-//   t_n = -rho c_p v_n,   t_t = -rho c_s v_t,   c_p = sqrt((K + 4G/3)/rho), c_s = sqrt(G/rho),
-// plus the static traction t0 recorded per particle (geostatic support), as a force on the
-// particle's ring: a = t (face_r / r) / (rho dp) (face_r / r = 1 for a face z = const).
+// Non-reflecting viscous-spring boundary. The particles held by a boundary (its boundary
+// layer, 0 <= d < dp, when the boundary stress was recorded; flag bit FLAG_HELD_BOUNDARY << k)
+// carry the traction of Lysmer & Kuhlemeyer (1969) dashpots and of the static springs of
+// Deeks & Randolph (1994) / Liu et al. (2006), plus the static traction t0 recorded then:
+//   t_n = t0_n - rho c_p v_n - K_n u_n,   t_t = t0_t - rho c_s v_t - K_t u_t,
+//   c_p = sqrt((K + 4G/3)/rho),  c_s = sqrt(G/rho),  K_n = 4G/(3R),  K_t = 2G/(3R),
+// u = x - x_hold, as a force on the particle's ring: a = t (face_r / r) / (rho dp)
+// (face_r / r = 1 for a face z = const). The springs give the far field its static
+// stiffness: with dashpots alone a lasting load (the compacted sand next to the lab's wall)
+// pushes soil out through the boundary at a constant rate. Membership is kept when a
+// particle moves, so a held particle pushed past the plane is still pulled back.
 struct NonReflectingBoundary {
-  ViewN<double, 2> x, v, a, traction0;
+  ViewN<double, 2> x, v, a, traction0, x_hold;
   View1<double> rho;
-  View1<int> material;
+  View1<int> material, flags;
   Kokkos::View<const MaterialParams*, MemSpace> materials;
-  MirrorPlanes planes;  // reused geometry: axis, position, side
+  MirrorPlanes planes;  // reused geometry: axis, position, side, spring_distance
   double dp;
 
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     for (int k = 0; k < planes.count; ++k) {
+      if (!(flags(i) & (FLAG_HELD_BOUNDARY << k))) continue;
       const MirrorPlane& pl = planes.plane[k];
-      const double d = (x(i, pl.axis) - pl.position) * pl.side;
-      if (d < 0.0 || d >= dp) continue;
       const MaterialParams& m = materials(material(i));
-      const double cp = math::sqrt(m.p_wave_modulus() / rho(i)), cs = math::sqrt(m.shear_modulus / rho(i));
+      const double G = m.shear_modulus;
+      const double cp = math::sqrt(m.p_wave_modulus() / rho(i)), cs = math::sqrt(G / rho(i));
+      const double Kn = pl.spring_distance > 0 ? 4.0 * G / (3.0 * pl.spring_distance) : 0.0;
+      const double Kt = 0.5 * Kn;
       const int n = pl.axis, t = 1 - pl.axis;
       const double ratio = pl.axis == 0 ? pl.position / math::max(x(i, 0), 1e-12) : 1.0;
       const double k_a = ratio / (rho(i) * dp);
-      a(i, n) += k_a * (traction0(i, n) - rho(i) * cp * v(i, n));
-      a(i, t) += k_a * (traction0(i, t) - rho(i) * cs * v(i, t));
+      a(i, n) += k_a * (traction0(i, n) - rho(i) * cp * v(i, n) - Kn * (x(i, n) - x_hold(i, n)));
+      a(i, t) += k_a * (traction0(i, t) - rho(i) * cs * v(i, t) - Kt * (x(i, t) - x_hold(i, t)));
     }
   }
 };

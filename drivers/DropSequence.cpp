@@ -262,9 +262,11 @@ void DropSequence::progress(int k, bool force) {
   const Stage& s = stages_[k];
   const double done_frac = double(k) / stages_.size();
   const double elapsed = wall_done_ + stage_wall_;
-  const double left = k > 0 ? elapsed / done_frac * (1.0 - done_frac) : 0.0;
+  // Time left from the stages done so far (none done yet: no estimate).
+  char left[48] = "time left unknown yet";
+  if (k > 0) std::snprintf(left, sizeof left, "~%.0f s left", elapsed / done_frac * (1.0 - done_frac));
   char buf[256];
-  std::snprintf(buf, sizeof buf, "[tamp] stage %d/%zu %-8s blow %d/%zu | t = %.4f s | step %ld | %.0f steps/s | ~%.0f s left",
+  std::snprintf(buf, sizeof buf, "[tamp] stage %d/%zu %-8s blow %d/%zu | t = %.4f s | step %ld | %.0f steps/s | %s",
                 k + 1, stages_.size(), kind_name(s.kind), s.blow, cfg_.schedule.drop_heights.size(), sim_.time(),
                 sim_.steps(), sim_.steps() / std::max(1e-9, now), left);
   std::fprintf(stderr, "%s\n", buf);

@@ -45,8 +45,12 @@ class MirrorGhosts {
   void sync_stress(Particles& p, double gravity) const;
   int ghost_count() const { return ghost_count_; }
 
- private:
+  // The ghosts [begin, end) of plane `plane`. Public only because nvcc does not allow device
+  // lambdas in private member functions.
   struct Range { int begin, end, plane; };
+  void sync_range_kinematics(Particles& p, const Range& rg) const;
+
+ private:
   std::vector<Range> ranges_;
   int ghost_count_ = 0;
   double gravity_ = 0;
@@ -81,6 +85,12 @@ inline void MirrorGhosts::generate(Particles& p, double band, double gravity) {
           }
         });
     ranges_.push_back({n, n + count, ip});
+    // Place this plane's ghosts now: the next plane selects its sources, these ghosts
+    // included (corner images), by position. (Placing all ghosts only at the end left the
+    // next plane reading stale positions: corner ghosts went missing, and the particles
+    // at the corner of the base and the outer wall fell through, issue 2's base defect.)
+    p.n_total = n + count;
+    sync_range_kinematics(p, ranges_.back());
     n += count;
   }
   p.n_total = n;
@@ -90,9 +100,13 @@ inline void MirrorGhosts::generate(Particles& p, double band, double gravity) {
 }
 
 inline void MirrorGhosts::sync_kinematics(Particles& p) const {
+  for (const Range& rg : ranges_) sync_range_kinematics(p, rg);
+}
+
+inline void MirrorGhosts::sync_range_kinematics(Particles& p, const Range& rg) const {
   auto x = p.x; auto v = p.v; auto rho = p.rho; auto mp = p.planar_mass; auto mass = p.mass;
   auto mat = p.material; auto flags = p.flags; auto src = p.ghost_source;
-  for (const Range& rg : ranges_) {
+  {
     const MirrorPlane pl = planes.plane[rg.plane];
     Kokkos::parallel_for(
         "tamp::mirror::kinematics", Kokkos::RangePolicy<ExecSpace>(rg.begin, rg.end),

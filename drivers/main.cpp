@@ -299,7 +299,7 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
 }
 
 int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                 int iterations) {
+                 int iterations, double bic_margin) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
   if (fs::exists(out) && !force) {
     tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
@@ -308,6 +308,7 @@ int cmd_diagnose(const std::string& data_path, const std::string& params, const 
   tamp::DiagnoseOptions opt;
   opt.baseline_params = split_list(params);
   opt.fit.max_iterations = iterations;
+  opt.bic_margin = bic_margin;
   const std::string selected = tamp::diagnose(data, out, opt);
   std::cout << "selected_effect: " << selected << "\n";
   return 0;
@@ -365,6 +366,7 @@ int main(int argc, char** argv) {
   double noise = 0.02;
   unsigned seed = 1;
   int iterations = 8;
+  double bic_margin = 6.0;
   std::string method = "nelder-mead";
   auto* compare = app.add_subcommand("compare", "Residuals of a finished run against measured data");
   compare->add_option("data", data_path, "Data file (TOML), e.g. data/lab-observations.toml")->required();
@@ -381,6 +383,9 @@ int main(int argc, char** argv) {
   diagnose->add_option("--params", params, "Baseline parameters (default <target>.Su)");
   diagnose->add_option("--out", out, "Result folder (diagnosis.json, report.md)")->required();
   diagnose->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations per fit (default 8)");
+  diagnose->add_option("--bic-margin", bic_margin,
+                       "How much an effect must lower BIC to be selected (default 6, 'strong' evidence)")
+      ->check(CLI::NonNegativeNumber);
   diagnose->add_flag("--force", force, "Overwrite an existing result folder");
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
   synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
@@ -405,7 +410,7 @@ int main(int argc, char** argv) {
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method);
-    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations);
+    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

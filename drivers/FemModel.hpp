@@ -2,7 +2,9 @@
 // mesh of one rectangular block [r0, r1] x [z0, z1] with nr x nz elements and one material,
 // nodal boundary conditions, and central-difference stepping. Header-only. docs/fem.md.
 #pragma once
+#include <cmath>
 #include <stdexcept>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -53,6 +55,9 @@ class FemModel {
     mesh_.v_bc = ViewN<double, 2>("fem::v_bc", nn);
     mesh_.mass = View1<double>("fem::mass", nn);
     mesh_.bc = View1<int>("fem::bc", nn);
+    mesh_.dashpot = ViewN<double, 2>("fem::dashpot", nn);
+    mesh_.spring = ViewN<double, 2>("fem::spring", nn);
+    mesh_.f_hold = ViewN<double, 2>("fem::f_hold", nn);
     mesh_.conn = Kokkos::View<int* [4], MemSpace>("fem::conn", ne);
     mesh_.material = View1<int>("fem::material", ne);
     mesh_.stress = ViewN<double, 4>("fem::stress", ne);
@@ -172,6 +177,63 @@ class FemModel {
     Kokkos::deep_copy(mesh_.v_bc, vbc_h);
   }
 
+  // Makes a side a non-reflecting viscous-spring boundary (as for particles, docs/sph.md):
+  // each node gets, over its tributary ring area A = Int N_I 2 pi r ds of the side,
+  // dashpots rho c_p A (normal) and rho c_s A (tangential) (Lysmer & Kuhlemeyer 1969) and
+  // springs K_n A, K_t A with K_n = 4G/(3R), K_t = 2G/(3R) (Deeks & Randolph 1994, Liu et
+  // al. 2006); R = spring_distance (m, 0: no springs). The held static force is set by
+  // hold_boundary_forces(). Uses the material's initial density.
+  void set_non_reflecting(FemSide side, double spring_distance) {
+    if (spring_distance < 0) throw std::invalid_argument("FemModel::set_non_reflecting: spring_distance < 0");
+    auto mat_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.materials);
+    const MaterialParams& m = mat_h(0);
+    const double rho = m.density, G = m.shear_modulus;
+    const double cp = std::sqrt(m.p_wave_modulus() / rho), cs = std::sqrt(G / rho);
+    const double kn = spring_distance > 0 ? 4.0 * G / (3.0 * spring_distance) : 0.0, kt = 0.5 * kn;
+    auto x_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.x0);
+    auto c_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.dashpot);
+    auto k_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.spring);
+    const bool r_side = (side == FemSide::Inner || side == FemSide::Outer);
+    const int n_edges = r_side ? block_.nz : block_.nr;
+    const int nrm = r_side ? 0 : 1, tan = 1 - nrm;
+    auto side_node = [&](int k) {
+      switch (side) {
+        case FemSide::Inner: return node(0, k);
+        case FemSide::Outer: return node(block_.nr, k);
+        case FemSide::Bottom: return node(k, 0);
+        default: return node(k, block_.nz);
+      }
+    };
+    for (int k = 0; k < n_edges; ++k) {
+      const int a = side_node(k), b = side_node(k + 1);
+      const double ra = x_h(a, 0), rb = x_h(b, 0);
+      const double len = std::hypot(x_h(b, 0) - ra, x_h(b, 1) - x_h(a, 1));
+      // Int N_a 2 pi r ds over a straight edge with r linear: 2 pi L (2 r_a + r_b) / 6
+      const double Aa = 2.0 * pi * len * (2.0 * ra + rb) / 6.0, Ab = 2.0 * pi * len * (ra + 2.0 * rb) / 6.0;
+      for (const auto& [n, A] : {std::pair<int, double>{a, Aa}, std::pair<int, double>{b, Ab}}) {
+        c_h(n, nrm) += rho * cp * A;
+        c_h(n, tan) += rho * cs * A;
+        k_h(n, nrm) += kn * A;
+        k_h(n, tan) += kt * A;
+      }
+    }
+    Kokkos::deep_copy(mesh_.dashpot, c_h);
+    Kokkos::deep_copy(mesh_.spring, k_h);
+  }
+
+  // Holds, on the non-reflecting boundary nodes, the force that keeps them in equilibrium
+  // now (f_int + m g e_z): a geostatic state keeps its support while waves pass out.
+  void hold_boundary_forces() {
+    if (!forces_valid_) compute_forces(0.0);
+    auto f = mesh_.f_int; auto c = mesh_.dashpot; auto m = mesh_.mass; auto fh = mesh_.f_hold;
+    const double g = opt_.gravity;
+    Kokkos::parallel_for("tamp::fem::hold", Kokkos::RangePolicy<ExecSpace>(0, mesh_.n_nodes), KOKKOS_LAMBDA(int i) {
+      const bool on = c(i, 0) > 0 || c(i, 1) > 0;
+      fh(i, 0) = on ? f(i, 0) : 0.0;
+      fh(i, 1) = on ? f(i, 1) + m(i) * g : 0.0;
+    });
+  }
+
   // Initial state setters (host vectors indexed by node / element).
   void set_velocities(const std::vector<double>& vr, const std::vector<double>& vz) {
     auto v_h = Kokkos::create_mirror_view(mesh_.v);
@@ -195,7 +257,8 @@ class FemModel {
     if (!forces_valid_) compute_forces(0.0);
     if (!(dt > 0)) dt = opt_.cfl * stable_dt_;
     QuadNodeUpdate upd;
-    upd.x = mesh_.x; upd.v = mesh_.v; upd.f_int = mesh_.f_int; upd.f_ext = mesh_.f_ext;
+    upd.x = mesh_.x; upd.x0 = mesh_.x0; upd.v = mesh_.v; upd.f_int = mesh_.f_int; upd.f_ext = mesh_.f_ext;
+    upd.dashpot = mesh_.dashpot; upd.spring = mesh_.spring; upd.f_hold = mesh_.f_hold;
     upd.v_bc = mesh_.v_bc; upd.mass = mesh_.mass; upd.bc = mesh_.bc;
     upd.gravity = opt_.gravity;
     upd.damping = opt_.damping;

@@ -41,6 +41,10 @@ struct FemMesh {
   ViewN<double, 2> v_bc;    // prescribed velocity of the flagged components, m/s
   View1<double> mass;       // lumped ring mass, kg
   View1<int> bc;            // NodeBc flags
+  // Non-reflecting (viscous-spring) boundary nodes, per component r, z; zero elsewhere:
+  ViewN<double, 2> dashpot;  // C = rho c A (c_p normal, c_s tangential), N s/m
+  ViewN<double, 2> spring;   // K A (K_n = 4G/(3R) normal, K_t = 2G/(3R) tangential), N/m
+  ViewN<double, 2> f_hold;   // static force of the removed far field, held, N
   // elements
   Kokkos::View<int* [4], MemSpace> conn;  // node ids, counter-clockwise
   View1<int> material;                    // index into the material table
@@ -175,14 +179,20 @@ KOKKOS_INLINE_FUNCTION void quad_hourglass_gamma(const double r[4], const double
 //   x^{n+1}    = x^n + dt v^{n+1/2}
 // dt_kick = (dt^{n-1/2} + dt^{n+1/2}) / 2 (dt/2 on the first step), zeta = mass damping.
 struct QuadNodeUpdate {
-  ViewN<double, 2> x, v, f_int, f_ext, v_bc;
+  ViewN<double, 2> x, x0, v, f_int, f_ext, v_bc;
+  ViewN<double, 2> dashpot, spring, f_hold;  // viscous-spring boundary (zero off it)
   View1<double> mass;
   View1<int> bc;
   double gravity = 0, damping = 0, dt_kick = 0, dt = 0;
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     const double inv_m = 1.0 / mass(i);
-    const double a_r = (f_ext(i, 0) - f_int(i, 0)) * inv_m;
-    const double a_z = (f_ext(i, 1) - f_int(i, 1)) * inv_m - gravity;
+    // Boundary force from the last half-step velocity (explicit dashpot) and the
+    // displacement from the reference configuration.
+    double fb[2];
+    for (int c = 0; c < 2; ++c)
+      fb[c] = f_hold(i, c) - dashpot(i, c) * v(i, c) - spring(i, c) * (x(i, c) - x0(i, c));
+    const double a_r = (f_ext(i, 0) + fb[0] - f_int(i, 0)) * inv_m;
+    const double a_z = (f_ext(i, 1) + fb[1] - f_int(i, 1)) * inv_m - gravity;
     const double c0 = 1.0 - 0.5 * damping * dt_kick, c1 = 1.0 / (1.0 + 0.5 * damping * dt_kick);
     double vr = (c0 * v(i, 0) + dt_kick * a_r) * c1;
     double vz = (c0 * v(i, 1) + dt_kick * a_z) * c1;

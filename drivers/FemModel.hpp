@@ -52,6 +52,7 @@ class FemModel {
     mesh_.v = ViewN<double, 2>("fem::v", nn);
     mesh_.f_int = ViewN<double, 2>("fem::f_int", nn);
     mesh_.f_ext = ViewN<double, 2>("fem::f_ext", nn);
+    mesh_.f_tie = ViewN<double, 2>("fem::f_tie", nn);
     mesh_.v_bc = ViewN<double, 2>("fem::v_bc", nn);
     mesh_.mass = View1<double>("fem::mass", nn);
     mesh_.bc = View1<int>("fem::bc", nn);
@@ -254,10 +255,23 @@ class FemModel {
 
   // One central-difference step; dt <= 0 takes the stable step.
   void step(double dt = 0) {
+    if (!(dt > 0)) {
+      if (!forces_valid_) compute_forces(0.0);
+      dt = opt_.cfl * stable_dt_;
+    }
+    move_nodes(dt);
+    update_elements(dt);
+  }
+
+  // The two halves of step(), for a driver that interleaves them with the particles (the
+  // SPH-FEM tie): move_nodes kicks v^{n-1/2} -> v^{n+1/2} with the forces of x^n and moves
+  // x^n -> x^{n+1}; update_elements updates the stresses and the internal forces at x^{n+1}
+  // and advances the clock.
+  void move_nodes(double dt) {
     if (!forces_valid_) compute_forces(0.0);
-    if (!(dt > 0)) dt = opt_.cfl * stable_dt_;
     QuadNodeUpdate upd;
     upd.x = mesh_.x; upd.x0 = mesh_.x0; upd.v = mesh_.v; upd.f_int = mesh_.f_int; upd.f_ext = mesh_.f_ext;
+    upd.f_tie = mesh_.f_tie;
     upd.dashpot = mesh_.dashpot; upd.spring = mesh_.spring; upd.f_hold = mesh_.f_hold;
     upd.v_bc = mesh_.v_bc; upd.mass = mesh_.mass; upd.bc = mesh_.bc;
     upd.gravity = opt_.gravity;
@@ -265,7 +279,10 @@ class FemModel {
     upd.dt_kick = 0.5 * (dt_prev_ + dt);
     upd.dt = dt;
     Kokkos::parallel_for("tamp::fem::nodes", Kokkos::RangePolicy<ExecSpace>(0, mesh_.n_nodes), upd);
-    element_pass(dt, upd.dt_kick);
+    dt_kick_ = upd.dt_kick;
+  }
+  void update_elements(double dt) {
+    element_pass(dt, dt_kick_);
     dt_prev_ = dt;
     time_ += dt;
     ++steps_;
@@ -336,7 +353,7 @@ class FemModel {
   FemMesh mesh_;
   ForceScatter scatter_;
   double density_ = 0;
-  double time_ = 0, dt_prev_ = 0, stable_dt_ = 0;
+  double time_ = 0, dt_prev_ = 0, stable_dt_ = 0, dt_kick_ = 0;
   long steps_ = 0;
   bool forces_valid_ = false;
 };

@@ -9,11 +9,13 @@
 #include "core/Material.hpp"
 #include "core/Output.hpp"
 #include "core/Particles.hpp"
+#include "drivers/FemModel.hpp"
 #include "kernels/Integrate.hpp"
 #include "kernels/Mirror.hpp"
 #include "kernels/NeighbourList.hpp"
 #include "kernels/RigidContact.hpp"
 #include "kernels/SphSolid.hpp"
+#include "kernels/Tie.hpp"
 
 namespace tamp {
 
@@ -118,6 +120,13 @@ class Simulation {
   // initial stress by hand.
   void hold_boundary_stress();
 
+  // Ties the particles to an FEM block whose side `interface` faces them (docs/coupling.md):
+  // from now on step() advances both in one time loop with the smaller stable step. The
+  // block's material must be `material` (a name in the deck). The FEM model must outlive
+  // the tie. Not yet supported with a tie: backfill (add_particles) and checkpoints.
+  void tie_fem(fem::FemModel& fem, fem::FemSide interface, const std::string& material);
+  int tie_particle_count() const { return tie_.count; }
+
   // Particles inside `box` take the velocity (v_r, v_z) from now on (m/s).
   void prescribe_velocity(const Box& box, double v_r, double v_z);
   // A surface traction (t_r, t_z) in Pa on the particles in `box`, which form a boundary
@@ -145,6 +154,10 @@ class Simulation {
   Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
   View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
   ViewN<double, 2> contact_force_;  // per particle ring, N
+  fem::FemModel* fem_ = nullptr;  // tied FEM block (not owned), or none
+  TieParticles tie_;
+  void sync_tie_kinematics();
+  void sync_tie_stress();
   RigidBody body_;
   ContactLaw contact_law_;
   double contact_energy_ = 0, contact_power_ = 0;

@@ -38,6 +38,7 @@ struct FemMesh {
   ViewN<double, 2> v;       // velocity at the last half step, m/s
   ViewN<double, 2> f_int;   // internal force (stress divergence + hourglass), N
   ViewN<double, 2> f_ext;   // applied external force (set by the user), N
+  ViewN<double, 2> f_tie;   // force from tied particles (SPH-FEM tie, drivers/Simulation.cpp), N
   ViewN<double, 2> v_bc;    // prescribed velocity of the flagged components, m/s
   View1<double> mass;       // lumped ring mass, kg
   View1<int> bc;            // NodeBc flags
@@ -179,7 +180,7 @@ KOKKOS_INLINE_FUNCTION void quad_hourglass_gamma(const double r[4], const double
 //   x^{n+1}    = x^n + dt v^{n+1/2}
 // dt_kick = (dt^{n-1/2} + dt^{n+1/2}) / 2 (dt/2 on the first step), zeta = mass damping.
 struct QuadNodeUpdate {
-  ViewN<double, 2> x, x0, v, f_int, f_ext, v_bc;
+  ViewN<double, 2> x, x0, v, f_int, f_ext, f_tie, v_bc;
   ViewN<double, 2> dashpot, spring, f_hold;  // viscous-spring boundary (zero off it)
   View1<double> mass;
   View1<int> bc;
@@ -190,7 +191,7 @@ struct QuadNodeUpdate {
     // displacement from the reference configuration.
     double fb[2];
     for (int c = 0; c < 2; ++c)
-      fb[c] = f_hold(i, c) - dashpot(i, c) * v(i, c) - spring(i, c) * (x(i, c) - x0(i, c));
+      fb[c] = f_tie(i, c) + f_hold(i, c) - dashpot(i, c) * v(i, c) - spring(i, c) * (x(i, c) - x0(i, c));
     const double a_r = (f_ext(i, 0) + fb[0] - f_int(i, 0)) * inv_m;
     const double a_z = (f_ext(i, 1) + fb[1] - f_int(i, 1)) * inv_m - gravity;
     const double c0 = 1.0 - 0.5 * damping * dt_kick, c1 = 1.0 / (1.0 + 0.5 * damping * dt_kick);

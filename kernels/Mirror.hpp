@@ -60,7 +60,7 @@ inline void MirrorGhosts::generate(Particles& p, double band, double gravity) {
   gravity_ = gravity;
   using policy = Kokkos::RangePolicy<ExecSpace>;
   ranges_.clear();
-  int n = p.n_real;
+  int n = p.n_real + p.n_virtual;  // real and tie particles are the sources
   for (int ip = 0; ip < planes.count; ++ip) {
     const MirrorPlane pl = planes.plane[ip];
     auto x = p.x;
@@ -94,7 +94,7 @@ inline void MirrorGhosts::generate(Particles& p, double band, double gravity) {
     n += count;
   }
   p.n_total = n;
-  ghost_count_ = n - p.n_real;
+  ghost_count_ = n - p.n_real - p.n_virtual;
   sync_kinematics(p);
   sync_stress(p, gravity_);
 }

@@ -1,0 +1,165 @@
+// SPH-FEM tie: tie particles (docs/coupling.md).
+//
+// The FEM elements next to the interface are sampled at the SPH spacing by tie particles,
+// fixed in the element's parent coordinates (xi, eta). Every step they take the element's
+// motion (bilinear interpolation of the nodes), density and stress, and stand in the SPH
+// sums as neighbours of the real particles: the particles next to the interface see a full
+// kernel of material on the FEM side, as they would inside one body. In return the FEM
+// boundary receives the interface traction t = sigma(p) . n at the interface points p
+// below the first row of tie particles, sigma(p) interpolated by linear moving least
+// squares over the particles around p on both sides (real particles, tie particles and
+// their images), handed to the edge nodes with consistent ring weights. (The reactions of
+// the SPH pair forces on the tie particles were tried first: they conserve momentum in z,
+// but in the ring-mass form they also carry the hoop-balance part of the radial pair sums,
+// a spurious radial load on the FEM that bent the stress field next to the axis by 15 %.)
+// Particle arrays: [n_real, n_real + n_tie).
+#pragma once
+#include "core/Particles.hpp"
+#include "kernels/FemQuad.hpp"
+#include "kernels/Wendland.hpp"
+
+namespace tamp {
+
+struct TieParticles {
+  int count = 0;
+  View1<int> element;            // FEM element holding the tie particle
+  ViewN<double, 2> parent;       // (xi, eta) in [-1, 1]^2
+  View1<int> edge_a, edge_b;     // the interface edge it hands its force to
+  View1<double> edge_s;          // share of its force for node b (1 - edge_s for node a)
+  View1<double> planar_mass;     // rho0 times its share of the element's (r, z) area, kg/m
+  ViewN<double, 2> normal;       // outward normal of the FEM at the interface (r, z)
+  View1<double> depth;           // reference distance to the interface, m
+  View1<double> face_area;       // first row: ring area of its interface segment, m2; else 0
+  ViewN<double, 2> force;        // interface force handed to the FEM, N (per ring)
+  int material = 0;              // index in the SPH material table (the FEM's material)
+};
+
+// Bilinear shape functions, nodes counter-clockwise from (xi, eta) = (-1, -1).
+KOKKOS_INLINE_FUNCTION void bilinear(double xi, double eta, double N[4]) {
+  N[0] = 0.25 * (1 - xi) * (1 - eta);
+  N[1] = 0.25 * (1 + xi) * (1 - eta);
+  N[2] = 0.25 * (1 + xi) * (1 + eta);
+  N[3] = 0.25 * (1 - xi) * (1 + eta);
+}
+
+// Position, velocity, density and masses of the tie particles from the FEM nodes.
+struct SyncTieKinematics {
+  ViewN<double, 2> x, v;
+  View1<double> mass, planar_mass, rho;
+  View1<int> material, flags;
+  // tie layout
+  View1<int> element;
+  ViewN<double, 2> parent;
+  View1<double> tie_planar_mass;
+  int tie_material, n_real;
+  // FEM
+  ViewN<double, 2> node_x, node_v;
+  Kokkos::View<int* [4], MemSpace> conn;
+  View1<double> elem_mass, elem_volume;
+  double r_floor;
+  KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
+    const int i = n_real + k, e = element(k);
+    double N[4];
+    bilinear(parent(k, 0), parent(k, 1), N);
+    double xr = 0, xz = 0, vr = 0, vz = 0;
+    for (int q = 0; q < 4; ++q) {
+      const int n = conn(e, q);
+      xr += N[q] * node_x(n, 0); xz += N[q] * node_x(n, 1);
+      vr += N[q] * node_v(n, 0); vz += N[q] * node_v(n, 1);
+    }
+    x(i, 0) = xr; x(i, 1) = xz;
+    v(i, 0) = vr; v(i, 1) = vz;
+    rho(i) = elem_mass(e) / elem_volume(e);
+    planar_mass(i) = tie_planar_mass(k);
+    mass(i) = 2.0 * pi * (xr > r_floor ? xr : r_floor) * tie_planar_mass(k);
+    material(i) = tie_material;
+    flags(i) = 0;
+  }
+};
+
+// Stress of the tie particles from their elements, and their share of the pair term.
+struct SyncTieStress {
+  ViewN<double, 4> sigma;
+  ViewN<double, 3> art_stress, pair_stress;
+  View1<double> planar_mass, rho;
+  View1<int> element;
+  ViewN<double, 4> elem_stress;
+  int n_real;
+  KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
+    const int i = n_real + k, e = element(k);
+    for (int c = 0; c < 4; ++c) sigma(i, c) = elem_stress(e, c);
+    for (int c = 0; c < 3; ++c) art_stress(i, c) = 0.0;
+    const double f = planar_mass(i) / (rho(i) * rho(i));
+    pair_stress(i, 0) = f * sigma(i, 0);
+    pair_stress(i, 1) = f * sigma(i, 1);
+    pair_stress(i, 2) = f * sigma(i, 3);
+  }
+};
+
+// Interface force of a first-row tie particle: F = A sigma(p) . n at the interface point
+// p = x + depth n, with sigma(p) from a linear moving-least-squares fit over the listed
+// neighbours of the tie particle (both sides of the interface; W centred at p):
+//   A_p = sum_j V_j W(x_j - p) q_j q_j^T,  q_j = (1, r_j - r_p, z_j - z_p),  A_p beta = e1,
+//   sigma(p) = sum_j V_j W(x_j - p) (beta . q_j) sigma_j        (exact for linear fields)
+struct TieTraction {
+  ViewN<double, 2> x;
+  View1<double> planar_mass, rho;
+  ViewN<double, 4> sigma;
+  View1<int> offsets, neighbours;
+  ViewN<double, 2> normal;
+  View1<double> depth, face_area;
+  ViewN<double, 2> force;
+  double h;
+  int n_real;
+  KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
+    if (face_area(k) == 0.0) {
+      force(k, 0) = 0.0;
+      force(k, 1) = 0.0;
+      return;
+    }
+    const int b = n_real + k;
+    const double nr = normal(k, 0), nz = normal(k, 1);
+    const double pr = x(b, 0) + depth(k) * nr, pz = x(b, 1) + depth(k) * nz;
+    const Wendland2D W(h);
+    double A00 = 0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;
+    auto accumulate = [&](int j) {
+      const double dr = x(j, 0) - pr, dz = x(j, 1) - pz;
+      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(j) / rho(j);
+      A00 += w; A01 += w * dr; A02 += w * dz;
+      A11 += w * dr * dr; A12 += w * dr * dz; A22 += w * dz * dz;
+    };
+    accumulate(b);
+    for (int q = offsets(b); q < offsets(b + 1); ++q) accumulate(neighbours(q));
+    const double c00 = A11 * A22 - A12 * A12, c01 = -(A01 * A22 - A12 * A02), c02 = A01 * A12 - A11 * A02;
+    const double det = A00 * c00 + A01 * c01 + A02 * c02;
+    double b0 = 1.0 / A00, b1 = 0.0, b2 = 0.0;  // Shepard where the fit is singular
+    if (math::abs(det) > 1e-12 * math::abs(A00 * c00)) { b0 = c00 / det; b1 = c01 / det; b2 = c02 / det; }
+    double s[4] = {0, 0, 0, 0};
+    auto add = [&](int j) {
+      const double dr = x(j, 0) - pr, dz = x(j, 1) - pz;
+      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(j) / rho(j) * (b0 + b1 * dr + b2 * dz);
+      for (int c = 0; c < 4; ++c) s[c] += w * sigma(j, c);
+    };
+    add(b);
+    for (int q = offsets(b); q < offsets(b + 1); ++q) add(neighbours(q));
+    // t = sigma . n with sigma = [[rr, rz], [rz, zz]] in the meridian plane
+    force(k, 0) = face_area(k) * (s[0] * nr + s[3] * nz);
+    force(k, 1) = face_area(k) * (s[3] * nr + s[1] * nz);
+  }
+};
+
+// Hands each tie particle's force to its interface edge nodes (f_tie must be zeroed first).
+struct TieForceToNodes {
+  ViewN<double, 2> force, f_tie;
+  View1<int> edge_a, edge_b;
+  View1<double> edge_s;
+  KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
+    const double s = edge_s(k);
+    for (int c = 0; c < 2; ++c) {
+      Kokkos::atomic_add(&f_tie(edge_a(k), c), (1.0 - s) * force(k, c));
+      Kokkos::atomic_add(&f_tie(edge_b(k), c), s * force(k, c));
+    }
+  }
+};
+
+}  // namespace tamp

@@ -439,6 +439,9 @@ bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) 
     progress(k, true);
     if (stop_after >= 0 && k >= stop_after) return next_stage_ >= static_cast<int>(stages_.size());
   }
+  // Tables and summary of the finished run (also after a restart from its last checkpoint:
+  // that re-measures a finished run with the current measurement code).
+  write_tables(wall_done_);
   return true;
 }
 
@@ -508,27 +511,38 @@ ColumnSummary DropSequence::column(const HostParticles& hp) const {
       c.aggregate_kg += hp.mass[i];
     }
   if (z_bot > z_top) return c;
-  // bands of one spacing from the top of the aggregate down; diameter = 2 (max r + dp/2)
+  // Bands of one spacing from the top of the aggregate down. Diameter of a band: that of the
+  // solid cylinder holding the band's aggregate volume, d = 2 sqrt(V_b / (pi dp)), V_b the sum
+  // of the ring volumes m / rho. Robust at particle resolution, where the outermost grain
+  // is not: one grain thrown out over the heaved surface at r = 0.27 m made a 552 mm
+  // "largest diameter" under the former rule (2 (largest r + dp/2)).
   const int nb = static_cast<int>(std::floor((z_top - z_bot) / dp)) + 1;
-  std::vector<double> rmax(nb, -1.0);
+  std::vector<double> volume(nb, 0.0);
   for (size_t i = 0; i < hp.r.size(); ++i)
     if (hp.material[i] == backfill_material_) {
       const int b = std::min(nb - 1, static_cast<int>(std::floor((z_top + 0.5 * dp - hp.z[i]) / dp)));
-      rmax[b] = std::max(rmax[b], hp.r[i]);
+      volume[b] += hp.mass[i] / hp.density[i];
     }
+  std::vector<double> rmax(nb, -1.0);  // equivalent radius minus dp/2 (the row adds it back)
+  for (int b = 0; b < nb; ++b)
+    if (volume[b] > 0) rmax[b] = std::sqrt(volume[b] / (pi * dp)) - 0.5 * dp;
   for (int b = 0; b < nb; ++b) {
     if (rmax[b] < 0) continue;
     const double zc = z_top - b * dp;
     c.rows.push_back({ground_ - zc, 2.0 * (rmax[b] + 0.5 * dp)});
   }
   c.length_m = (std::min(z_top + 0.5 * dp, ground_)) - (z_bot - 0.5 * dp);
-  // head and base: mean diameter of the top / bottom 30 mm (at least one band)
+  // head and base: mean diameter of the top / bottom 30 mm (at least one band) of the column
+  // in the ground: the head starts at the original ground level (aggregate heaped above it
+  // is loose grains, not the column's head), or at the aggregate's top if that is lower
   const double band = std::max(0.03, dp);
+  const double head_top = std::min(z_top, ground_);
   double hs = 0, bs = 0;
   int hn = 0, bn = 0;
   for (const auto& r : c.rows) {
     c.max_diameter_m = std::max(c.max_diameter_m, r.diameter_m);
-    if (ground_ - r.depth_m >= z_top - band + 1e-12) { hs += r.diameter_m; ++hn; }
+    const double zc = ground_ - r.depth_m;
+    if (zc <= head_top + 0.5 * dp && zc >= head_top - band + 1e-12) { hs += r.diameter_m; ++hn; }
     if (ground_ - r.depth_m <= z_bot + band - 1e-12) { bs += r.diameter_m; ++bn; }
   }
   c.head_diameter_m = hn ? hs / hn : 0.0;

@@ -539,6 +539,20 @@ TEST_CASE("Deck: non-reflecting boundaries parse and round-trip", "[deck]") {
   CHECK(d.outer.position == 1.0);
   p.rest = "[boundaries]\nouter = { type = \"absorbing\", r = 1.0 }\n";
   require_error(p.text(), {"deck.toml", "boundaries.outer.type", "absorbing", "non-reflecting"});
+  // spring_distance: default automatic (-1), explicit values round-trip, 0 = dashpots only
+  CHECK(c.outer.spring_distance < 0);
+  p.rest = "[boundaries]\nouter = { type = \"non-reflecting\", r = 1.0, spring_distance = 0.75 }\n"
+           "bottom = { type = \"non-reflecting\", z = 0, spring_distance = 0 }\n";
+  const Config e = parse_deck(p.text(), "deck.toml");
+  CHECK(e.outer.spring_distance == 0.75);
+  CHECK(e.bottom.spring_distance == 0.0);
+  const Config f = parse_deck(to_toml(e), "round-trip.toml");
+  CHECK(f.outer.spring_distance == 0.75);
+  CHECK(f.bottom.spring_distance == 0.0);
+  p.rest = "[boundaries]\nouter = { type = \"non-reflecting\", r = 1.0, spring_distance = -0.5 }\n";
+  require_error(p.text(), {"deck.toml", "boundaries.outer.spring_distance", "-0.5", "spring_distance >= 0"});
+  p.rest = "[boundaries]\nouter = { type = \"roller\", r = 1.0, spring_distance = 0.5 }\n";
+  require_error(p.text(), {"deck.toml", "boundaries.outer.spring_distance", "0.5", "non-reflecting"});
 }
 
 TEST_CASE("Deck: initial_stress takes zero or geostatic", "[deck]") {

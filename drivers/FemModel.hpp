@@ -17,6 +17,10 @@ struct FemBlock {
   int nr = 1, nz = 1;                     // elements along r and z
 };
 
+// Nodal force assembly: a ScatterView duplicated per thread on host back ends (atomic on
+// GPUs), or atomic additions on every back end. perf/bench_fem.cpp measures both.
+enum FemAssembly : int { ASSEMBLY_SCATTER = 0, ASSEMBLY_ATOMIC = 1 };
+
 struct FemOptions {
   double cfl = 0.8;                      // dt = cfl * min_e L_e / c_e (1.0 ran stable)
   int hourglass = HOURGLASS_STIFFNESS;   // HourglassForm
@@ -24,6 +28,7 @@ struct FemOptions {
   double gravity = 0.0;                  // m/s2, acting in -z
   double damping = 0.0;                  // 1/s, mass-proportional (dynamic relaxation)
   bool axis_symmetry = true;             // r0 == 0: the axis nodes get v_r = 0
+  int assembly = ASSEMBLY_SCATTER;       // nodal force assembly (FemAssembly)
 };
 
 // Boundary condition of a block side. Roller: the normal velocity is zero. Velocity: both
@@ -96,6 +101,9 @@ class FemModel {
     set_node_positions(r, z);
     if (block.r0 == 0 && opt_.axis_symmetry) set_side(FemSide::Inner, FemBc::Roller);
     scatter_ = Kokkos::Experimental::create_scatter_view(mesh_.f_int);
+    atomic_scatter_ = Kokkos::Experimental::create_scatter_view(
+        Kokkos::Experimental::ScatterSum{}, Kokkos::Experimental::ScatterNonDuplicated{},
+        Kokkos::Experimental::ScatterAtomic{}, mesh_.f_int);
   }
 
   int node(int i, int j) const { return j * (block_.nr + 1) + i; }
@@ -314,7 +322,16 @@ class FemModel {
 
  private:
   void element_pass(double dt, double dt_kick) {
-    QuadElementPass pass;
+    if (opt_.assembly == ASSEMBLY_ATOMIC) {
+      run_element_pass(atomic_scatter_, dt, dt_kick);
+    } else {
+      run_element_pass(scatter_, dt, dt_kick);
+    }
+  }
+
+  template <class Scatter>
+  void run_element_pass(Scatter& scatter, double dt, double dt_kick) {
+    QuadElementPassT<Scatter> pass;
     pass.x = mesh_.x; pass.v = mesh_.v; pass.conn = mesh_.conn;
     pass.material = mesh_.material; pass.materials = mesh_.materials;
     pass.stress = mesh_.stress; pass.strain_rate = mesh_.strain_rate;
@@ -322,18 +339,18 @@ class FemModel {
     pass.volume = mesh_.volume; pass.internal_energy = mesh_.internal_energy;
     pass.hourglass_energy = mesh_.hourglass_energy;
     pass.hourglass_force = mesh_.hourglass_force;
-    pass.f_scatter = scatter_;
+    pass.f_scatter = scatter;
     pass.dt = dt;
     pass.dt_kick = dt_kick;
     pass.hourglass_form = opt_.hourglass;
     pass.hourglass_coef = opt_.hourglass_coefficient;
     Kokkos::deep_copy(mesh_.f_int, 0.0);
-    scatter_.reset();
+    scatter.reset();
     double dt_min = 1e300;
     Kokkos::parallel_reduce("tamp::fem::elements",
                             Kokkos::RangePolicy<ExecSpace>(0, mesh_.n_elements), pass,
                             Kokkos::Min<double>(dt_min));
-    Kokkos::Experimental::contribute(mesh_.f_int, scatter_);
+    Kokkos::Experimental::contribute(mesh_.f_int, scatter);
     if (!(dt_min > 0))
       throw std::runtime_error("FemModel: inverted or degenerate element at t = " +
                                std::to_string(time_));
@@ -352,6 +369,7 @@ class FemModel {
   FemOptions opt_;
   FemMesh mesh_;
   ForceScatter scatter_;
+  AtomicForceScatter atomic_scatter_;
   double density_ = 0;
   double time_ = 0, dt_prev_ = 0, stable_dt_ = 0, dt_kick_ = 0;
   long steps_ = 0;

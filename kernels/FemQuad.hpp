@@ -25,9 +25,14 @@ enum HourglassForm : int {
   HOURGLASS_STIFFNESS = 1,  // incremental elastic hourglass force (LS-DYNA IHQ 4-like)
 };
 
-// Race-free nodal assembly: duplicated per thread on the host back ends, atomic on GPUs.
+// Race-free nodal assembly. ForceScatter: Kokkos' default, duplicated per thread on the host
+// back ends, atomic on GPUs. AtomicForceScatter: atomic everywhere (FemOptions::assembly;
+// measured against each other in perf/bench_fem.cpp, perf/RESULTS.md).
 using ForceScatter =
     decltype(Kokkos::Experimental::create_scatter_view(std::declval<ViewN<double, 2>>()));
+using AtomicForceScatter = decltype(Kokkos::Experimental::create_scatter_view(
+    Kokkos::Experimental::ScatterSum{}, Kokkos::Experimental::ScatterNonDuplicated{},
+    Kokkos::Experimental::ScatterAtomic{}, std::declval<ViewN<double, 2>>()));
 
 // The mesh and its state, all in device views.
 struct FemMesh {
@@ -214,7 +219,8 @@ struct QuadNodeUpdate {
 //   f_int,I = V^{n+1} B_I(x^{n+1})^T sigma^{n+1} + Q gamma_I            (hourglass)
 // Reduces the smallest stable step L / c over the elements (0 for an inverted element).
 // With dt = 0 it only re-evaluates the forces of the current stress.
-struct QuadElementPass {
+template <class Scatter>
+struct QuadElementPassT {
   ViewN<double, 2> x, v;
   Kokkos::View<int* [4], MemSpace> conn;
   View1<int> material;
@@ -222,7 +228,7 @@ struct QuadElementPass {
   ViewN<double, 4> stress, strain_rate;
   View1<double> plastic_strain, compaction, elem_mass, volume, internal_energy, hourglass_energy;
   ViewN<double, 2> hourglass_force;
-  ForceScatter f_scatter;
+  Scatter f_scatter;
   double dt = 0;       // this step, x^n -> x^{n+1}
   double dt_kick = 0;  // the kick that preceded this pass (QuadNodeUpdate::dt_kick)
   int hourglass_form = HOURGLASS_STIFFNESS;
@@ -335,5 +341,6 @@ struct QuadElementPass {
     dt_min = math::min(dt_min, dt_e);
   }
 };
+using QuadElementPass = QuadElementPassT<ForceScatter>;
 
 }  // namespace tamp::fem

@@ -505,3 +505,33 @@ TEST_CASE("FEM: a non-reflecting base with springs carries a lasting load (stati
               "top velocity %.1e m/s\n", q, u, exact, 100 * (u / exact - 1), vz);
   CHECK(std::fabs(u / exact - 1) < 0.005);
 }
+
+TEST_CASE("FEM: atomic and scatter-view assembly give the same motion", "[fem]") {
+  // Both race-free assemblies (FemOptions::assembly) must give the same forces; only the
+  // order of the additions differs, so agreement to round-off (1e-12 of the motion) is the
+  // tolerance.
+  FemBlock b;
+  b.r0 = 0; b.r1 = 0.2; b.z0 = 0; b.z1 = 0.2;
+  b.nr = 12; b.nz = 12;
+  std::vector<double> xs[2];
+  for (int mode = 0; mode < 2; ++mode) {
+    FemOptions o;
+    o.gravity = 9.81;
+    o.assembly = mode == 0 ? ASSEMBLY_SCATTER : ASSEMBLY_ATOMIC;
+    FemModel model(lab_clay(), b, o);
+    model.set_side(FemSide::Bottom, FemBc::Fixed);
+    model.set_side(FemSide::Outer, FemBc::Roller);
+    for (int k = 0; k < 200; ++k) model.step();
+    auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), model.mesh().x);
+    auto x0 = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), model.mesh().x0);
+    for (int i = 0; i < model.mesh().n_nodes; ++i) xs[mode].push_back(x(i, 1) - x0(i, 1));
+  }
+  double worst = 0, scale = 0;
+  for (size_t i = 0; i < xs[0].size(); ++i) {
+    worst = std::max(worst, std::fabs(xs[0][i] - xs[1][i]));
+    scale = std::max(scale, std::fabs(xs[0][i]));
+  }
+  std::printf("[fem assembly] largest settlement %.4e m, largest difference scatter/atomic %.2e m\n", scale, worst);
+  REQUIRE(scale > 0);
+  CHECK(worst <= 1e-12 * scale);
+}

@@ -1,5 +1,6 @@
 #include "drivers/Simulation.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -223,6 +224,7 @@ void Simulation::compute_acceleration() {
   Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
                  P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, P.hoop_factor, materials_, sph_, fab_table_};
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
+  profile_mark(&StepProfile::sph);
   if (fem_ && tie_.count > 0) {  // the interface traction from the stresses of both sides
     Kokkos::parallel_for("tamp::tie::traction", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieTraction{P.x, P.planar_mass, P.rho, P.sigma, neighbours_.offsets, neighbours_.neighbours,
@@ -231,6 +233,7 @@ void Simulation::compute_acceleration() {
     Kokkos::deep_copy(mesh.f_tie, 0.0);
     Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieForceToNodes{tie_.force, mesh.f_tie, tie_.edge_a, tie_.edge_b, tie_.edge_s});
+    profile_mark(&StepProfile::tie);
   }
   if (non_reflecting_.count > 0)
     Kokkos::parallel_for("tamp::non_reflecting", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
@@ -387,6 +390,7 @@ void Simulation::step(double dt_override) {
     throw RunFailure(msg.str());
   }
   dt_ = dt;
+  profile_mark(&StepProfile::other);  // the stable step
   sph_.gravity = gravity_at(time_ + dt);  // the accelerations below are those at t + dt
   using policy = Kokkos::RangePolicy<ExecSpace>;
   const policy reals(0, P.n_real);
@@ -403,21 +407,28 @@ void Simulation::step(double dt_override) {
   walls = ghosts_.planes;
   Drift drift{P.x, P.v, P.mass, P.planar_mass, P.flags, walls, non_reflecting_, dt, 1e-3 * config_.sph.spacing};
   Kokkos::parallel_for("tamp::drift", reals, drift);
+  profile_mark(&StepProfile::sph);
   if (fem_) {  // the tied FEM: v^{n+1/2}, x^{n+1} with the forces of x^n (tie forces included)
     fem_->move_nodes(dt);
+    profile_mark(&StepProfile::fem);
     sync_tie_kinematics();
+    profile_mark(&StepProfile::tie);
   }
 
   refresh_neighbours(false);
+  profile_mark(&StepProfile::search);
 
   ensure_pair_storage();
   StrainRateAndStress rates{P.x, P.v, P.hoop_factor, pair_f_, P.mass, P.rho, P.plastic_strain, P.compaction, P.internal_energy,
                             P.sigma, P.art_stress, P.material, neighbours_.offsets,
                             neighbours_.neighbours, materials_, sph_, dt};
   Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);
+  profile_mark(&StepProfile::sph);
   if (fem_) {  // FEM stresses and internal forces at x^{n+1}; the tie particles take them
     fem_->update_elements(dt);
+    profile_mark(&StepProfile::fem);
     sync_tie_stress();
+    profile_mark(&StepProfile::tie);
   }
   update_pair_stress();
 
@@ -436,6 +447,7 @@ void Simulation::step(double dt_override) {
   compute_acceleration();
   Kokkos::parallel_for("tamp::kick", reals, kick);
   integrate_body_half(0.5 * dt);
+  profile_mark(&StepProfile::sph);
   if (body_.active) {
     // trapezoidal rule on the contact power, with the full-step velocities
     const double power = contact_power(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
@@ -444,8 +456,18 @@ void Simulation::step(double dt_override) {
   } else {
     contact_power_ = 0.0;
   }
+  profile_mark(&StepProfile::other);
+  if (profiling_) ++profile_.steps;
   time_ += dt;
   ++steps_;
+}
+
+void Simulation::profile_mark(double StepProfile::*part) {
+  if (!profiling_) return;
+  Kokkos::fence();
+  const double now = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  if (profile_clock_ > 0) profile_.*part += now - profile_clock_;
+  profile_clock_ = now;
 }
 
 void Simulation::advance_to(double end_time, const std::function<bool()>& on_step) {

@@ -43,6 +43,17 @@ struct NewParticle {
   int material;
 };
 
+// Wall time of the parts of a step (s), summed over the steps taken while profiling is on
+// (Simulation::set_profiling). Each part ends with a fence, so profiling slows a run a little.
+struct StepProfile {
+  double search = 0;  // neighbour lists and mirror ghosts
+  double sph = 0;     // particle loops: kicks, drift, strain rate and stress, pair terms, acceleration
+  double fem = 0;     // FEM node update and element pass (tied FEM)
+  double tie = 0;     // tie particles' kinematics and stress, interface traction to the nodes
+  double other = 0;   // contact, non-reflecting boundaries, time step
+  long steps = 0;
+};
+
 // Thrown when the run cannot go on (NaN, collapsing time step): the message says what and where.
 struct RunFailure : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -127,6 +138,10 @@ class Simulation {
   void tie_fem(fem::FemModel& fem, fem::FemSide interface, const std::string& material);
   int tie_particle_count() const { return tie_.count; }
 
+  // Per-part wall times of the steps (perf); off by default (it adds fences).
+  void set_profiling(bool on) { profiling_ = on; profile_ = StepProfile{}; }
+  const StepProfile& profile() const { return profile_; }
+
   // Particles inside `box` take the velocity (v_r, v_z) from now on (m/s).
   void prescribe_velocity(const Box& box, double v_r, double v_z);
   // A surface traction (t_r, t_z) in Pa on the particles in `box`, which form a boundary
@@ -154,6 +169,10 @@ class Simulation {
   Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
   View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
   ViewN<double, 2> contact_force_;  // per particle ring, N
+  bool profiling_ = false;
+  StepProfile profile_;
+  double profile_clock_ = 0;
+  void profile_mark(double StepProfile::*part);  // adds the time since the last mark to `part`
   fem::FemModel* fem_ = nullptr;  // tied FEM block (not owned), or none
   TieParticles tie_;
   void sync_tie_kinematics();

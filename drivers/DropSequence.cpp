@@ -523,14 +523,8 @@ ColumnSummary DropSequence::column(const HostParticles& hp) const {
       const int b = std::min(nb - 1, static_cast<int>(std::floor((z_top + 0.5 * dp - hp.z[i]) / dp)));
       volume[b] += hp.mass[i] / hp.density[i];
     }
-  std::vector<double> rmax(nb, -1.0);  // equivalent radius minus dp/2 (the row adds it back)
   for (int b = 0; b < nb; ++b)
-    if (volume[b] > 0) rmax[b] = std::sqrt(volume[b] / (pi * dp)) - 0.5 * dp;
-  for (int b = 0; b < nb; ++b) {
-    if (rmax[b] < 0) continue;
-    const double zc = z_top - b * dp;
-    c.rows.push_back({ground_ - zc, 2.0 * (rmax[b] + 0.5 * dp)});
-  }
+    if (volume[b] > 0) c.rows.push_back({ground_ - (z_top - b * dp), 2.0 * std::sqrt(volume[b] / (pi * dp))});
   c.length_m = (std::min(z_top + 0.5 * dp, ground_)) - (z_bot - 0.5 * dp);
   // head and base: mean diameter of the top / bottom 30 mm (at least one band) of the column
   // in the ground: the head starts at the original ground level (aggregate heaped above it

@@ -107,6 +107,18 @@ class FemModel {
   }
 
   int node(int i, int j) const { return j * (block_.nr + 1) + i; }
+  // The k-th node along a side (k = 0 .. side_edges(side)), from the axis or the base up.
+  int side_node(FemSide side, int k) const {
+    switch (side) {
+      case FemSide::Inner: return node(0, k);
+      case FemSide::Outer: return node(block_.nr, k);
+      case FemSide::Bottom: return node(k, 0);
+      default: return node(k, block_.nz);
+    }
+  }
+  int side_edges(FemSide side) const {
+    return side == FemSide::Inner || side == FemSide::Outer ? block_.nz : block_.nr;
+  }
   int element(int i, int j) const { return j * block_.nr + i; }
   const FemBlock& block() const { return block_; }
   const FemOptions& options() const { return opt_; }
@@ -171,17 +183,7 @@ class FemModel {
       case FemBc::Roller: flags = r_side ? BC_R : BC_Z; vr = vz = 0; break;
       case FemBc::Velocity: flags = BC_R | BC_Z; break;
     }
-    const int count = r_side ? block_.nz + 1 : block_.nr + 1;
-    for (int k = 0; k < count; ++k) {
-      int n = 0;
-      switch (side) {
-        case FemSide::Inner: n = node(0, k); break;
-        case FemSide::Outer: n = node(block_.nr, k); break;
-        case FemSide::Bottom: n = node(k, 0); break;
-        case FemSide::Top: n = node(k, block_.nz); break;
-      }
-      apply_bc(bc_h, vbc_h, n, flags, vr, vz);
-    }
+    for (int k = 0; k <= side_edges(side); ++k) apply_bc(bc_h, vbc_h, side_node(side, k), flags, vr, vz);
     Kokkos::deep_copy(mesh_.bc, bc_h);
     Kokkos::deep_copy(mesh_.v_bc, vbc_h);
   }
@@ -203,18 +205,9 @@ class FemModel {
     auto c_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.dashpot);
     auto k_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.spring);
     const bool r_side = (side == FemSide::Inner || side == FemSide::Outer);
-    const int n_edges = r_side ? block_.nz : block_.nr;
     const int nrm = r_side ? 0 : 1, tan = 1 - nrm;
-    auto side_node = [&](int k) {
-      switch (side) {
-        case FemSide::Inner: return node(0, k);
-        case FemSide::Outer: return node(block_.nr, k);
-        case FemSide::Bottom: return node(k, 0);
-        default: return node(k, block_.nz);
-      }
-    };
-    for (int k = 0; k < n_edges; ++k) {
-      const int a = side_node(k), b = side_node(k + 1);
+    for (int k = 0; k < side_edges(side); ++k) {
+      const int a = side_node(side, k), b = side_node(side, k + 1);
       const double ra = x_h(a, 0), rb = x_h(b, 0);
       const double len = std::hypot(x_h(b, 0) - ra, x_h(b, 1) - x_h(a, 1));
       // Int N_a 2 pi r ds over a straight edge with r linear: 2 pi L (2 r_a + r_b) / 6

@@ -228,7 +228,8 @@ void Simulation::compute_acceleration() {
   if (fem_ && tie_.count > 0) {  // the interface traction from the stresses of both sides
     Kokkos::parallel_for("tamp::tie::traction", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieTraction{P.x, P.planar_mass, P.rho, P.sigma, neighbours_.offsets, neighbours_.neighbours,
-                                     tie_.normal, tie_.depth, tie_.face_area, tie_.force, sph_.h, P.n_real});
+                                     tie_.normal_r, tie_.normal_z, tie_.depth, tie_.face_area, tie_.force, sph_.h,
+                                     P.n_real});
     fem::FemMesh& mesh = fem_->mesh();
     Kokkos::deep_copy(mesh.f_tie, 0.0);
     Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
@@ -828,78 +829,65 @@ void Simulation::tie_fem(fem::FemModel& fem, fem::FemSide interface, const std::
   const double n_r = interface == fem::FemSide::Outer ? 1.0 : (interface == fem::FemSide::Inner ? -1.0 : 0.0);
   const double n_z = interface == fem::FemSide::Top ? 1.0 : (interface == fem::FemSide::Bottom ? -1.0 : 0.0);
   const bool z_face = interface == fem::FemSide::Top || interface == fem::FemSide::Bottom;
-  const double seg = z_face ? size_r / sub_r : size_z / sub_z;  // interface segment per tie particle
+  const double seg = z_face ? size_r / sub_r : size_z / sub_z;    // interface segment per tie particle
+  const double row = z_face ? size_z / sub_z : size_r / sub_r;    // depth of one row of tie particles
+  const double d = 1.0 / (z_face ? sub_r : sub_z);                 // segment as a fraction of the edge
   for (int j = 0; j < blk.nz; ++j)
     for (int i = 0; i < blk.nr; ++i)
       for (int b = 0; b < sub_z; ++b)
         for (int a = 0; a < sub_r; ++a) {
           const double p = -1.0 + (2.0 * a + 1.0) / sub_r, q = -1.0 + (2.0 * b + 1.0) / sub_z;
           const double r = blk.r0 + size_r * (i + 0.5 * (p + 1.0)), z = blk.z0 + size_z * (j + 0.5 * (q + 1.0));
-          double dist = 0;
-          int na = 0, nb = 0;
-          double s = 0;
-          switch (interface) {
-            case fem::FemSide::Top: dist = blk.z1 - z; na = fem.node(i, blk.nz); nb = fem.node(i + 1, blk.nz); s = 0.5 * (p + 1); break;
-            case fem::FemSide::Bottom: dist = z - blk.z0; na = fem.node(i, 0); nb = fem.node(i + 1, 0); s = 0.5 * (p + 1); break;
-            case fem::FemSide::Inner: dist = r - blk.r0; na = fem.node(0, j); nb = fem.node(0, j + 1); s = 0.5 * (q + 1); break;
-            case fem::FemSide::Outer: dist = blk.r1 - r; na = fem.node(blk.nr, j); nb = fem.node(blk.nr, j + 1); s = 0.5 * (q + 1); break;
-          }
+          // distance to the interface; the edge the particle projects onto, and where (s)
+          const double dist = interface == fem::FemSide::Top      ? blk.z1 - z
+                              : interface == fem::FemSide::Bottom ? z - blk.z0
+                              : interface == fem::FemSide::Inner  ? r - blk.r0
+                                                                  : blk.r1 - r;
           if (dist >= band) continue;
+          const int edge = z_face ? i : j;
+          const int na = fem.side_node(interface, edge), nb = fem.side_node(interface, edge + 1);
+          const double s = 0.5 * ((z_face ? p : q) + 1.0);
           // Weight of node b: the tie particle stands for a constant traction over its segment
-          // [s - d/2, s + d/2] of the edge (d = 1/sub), handed on with the consistent ring
-          // weights Int N_b 2 pi r ds / Int 2 pi r ds (Simpson: exact, r linear along the edge).
-          // On an edge z = const next to the axis this differs much from s: with one tie
-          // particle per element, s gave the axis node 50 % too much force.
-          const double d = 1.0 / ((interface == fem::FemSide::Top || interface == fem::FemSide::Bottom) ? sub_r : sub_z);
-          const double s0 = s - 0.5 * d, s1 = s + 0.5 * d, sm = s;
+          // [s - d/2, s + d/2] of the edge, handed on with the consistent ring weights
+          // Int N_b 2 pi r ds / Int 2 pi r ds (Simpson: exact, r linear along the edge). On an
+          // edge z = const next to the axis this differs much from s: with one tie particle
+          // per element, s gave the axis node 50 % too much force.
+          const double s0 = s - 0.5 * d, s1 = s + 0.5 * d;
           auto r_at = [&](double t) { return x0(na, 0) + t * (x0(nb, 0) - x0(na, 0)); };
-          const double num = (s0 * r_at(s0) + 4 * sm * r_at(sm) + s1 * r_at(s1));
-          const double den = (r_at(s0) + 4 * r_at(sm) + r_at(s1));
-          const double w_b = den > 0 ? num / den : s;
+          const double num = s0 * r_at(s0) + 4 * s * r_at(s) + s1 * r_at(s1);
+          const double den = r_at(s0) + 4 * r_at(s) + r_at(s1);
           elem.push_back(fem.element(i, j));
           xi.push_back(p); eta.push_back(q);
-          ea.push_back(na); eb.push_back(nb); es.push_back(w_b);
+          ea.push_back(na); eb.push_back(nb); es.push_back(den > 0 ? num / den : s);
           depth.push_back(dist);
           // first row (its interface point is the segment's midpoint): ring area of the segment
           const double rp = z_face ? r : (interface == fem::FemSide::Outer ? blk.r1 : blk.r0);
-          face.push_back(dist < (z_face ? size_z / sub_z : size_r / sub_r) ? 2.0 * pi * rp * seg : 0.0);
+          face.push_back(dist < row ? 2.0 * pi * rp * seg : 0.0);
         }
   const int n = static_cast<int>(elem.size());
+  auto upload = [](const char* label, const auto& host) {  // host vector -> device view
+    View1<typename std::decay_t<decltype(host)>::value_type> v(std::string(label), host.size());
+    auto h = Kokkos::create_mirror_view(v);
+    for (size_t k = 0; k < host.size(); ++k) h(k) = host[k];
+    Kokkos::deep_copy(v, h);
+    return v;
+  };
   tie_.count = n;
   tie_.material = mat;
-  tie_.element = View1<int>("tamp::tie::element", n);
+  tie_.normal_r = n_r;
+  tie_.normal_z = n_z;
+  tie_.element = upload("tamp::tie::element", elem);
+  tie_.edge_a = upload("tamp::tie::edge_a", ea);
+  tie_.edge_b = upload("tamp::tie::edge_b", eb);
+  tie_.edge_s = upload("tamp::tie::edge_s", es);
+  tie_.depth = upload("tamp::tie::depth", depth);
+  tie_.face_area = upload("tamp::tie::face_area", face);
+  tie_.planar_mass = upload("tamp::tie::planar_mass", std::vector<double>(n, rho0 * area));
   tie_.parent = ViewN<double, 2>("tamp::tie::parent", n);
-  tie_.edge_a = View1<int>("tamp::tie::edge_a", n);
-  tie_.edge_b = View1<int>("tamp::tie::edge_b", n);
-  tie_.edge_s = View1<double>("tamp::tie::edge_s", n);
-  tie_.planar_mass = View1<double>("tamp::tie::planar_mass", n);
-  tie_.force = ViewN<double, 2>("tamp::tie::force", n);
-  tie_.normal = ViewN<double, 2>("tamp::tie::normal", n);
-  tie_.depth = View1<double>("tamp::tie::depth", n);
-  tie_.face_area = View1<double>("tamp::tie::face_area", n);
-  auto h_n = Kokkos::create_mirror_view(tie_.normal);
-  auto h_d = Kokkos::create_mirror_view(tie_.depth);
-  auto h_f = Kokkos::create_mirror_view(tie_.face_area);
-  for (int k = 0; k < n; ++k) { h_n(k, 0) = n_r; h_n(k, 1) = n_z; h_d(k) = depth[k]; h_f(k) = face[k]; }
-  Kokkos::deep_copy(tie_.normal, h_n);
-  Kokkos::deep_copy(tie_.depth, h_d);
-  Kokkos::deep_copy(tie_.face_area, h_f);
-  auto h_e = Kokkos::create_mirror_view(tie_.element);
   auto h_p = Kokkos::create_mirror_view(tie_.parent);
-  auto h_a = Kokkos::create_mirror_view(tie_.edge_a);
-  auto h_b = Kokkos::create_mirror_view(tie_.edge_b);
-  auto h_s = Kokkos::create_mirror_view(tie_.edge_s);
-  auto h_m = Kokkos::create_mirror_view(tie_.planar_mass);
-  for (int k = 0; k < n; ++k) {
-    h_e(k) = elem[k]; h_p(k, 0) = xi[k]; h_p(k, 1) = eta[k];
-    h_a(k) = ea[k]; h_b(k) = eb[k]; h_s(k) = es[k]; h_m(k) = rho0 * area;
-  }
-  Kokkos::deep_copy(tie_.element, h_e);
+  for (int k = 0; k < n; ++k) { h_p(k, 0) = xi[k]; h_p(k, 1) = eta[k]; }
   Kokkos::deep_copy(tie_.parent, h_p);
-  Kokkos::deep_copy(tie_.edge_a, h_a);
-  Kokkos::deep_copy(tie_.edge_b, h_b);
-  Kokkos::deep_copy(tie_.edge_s, h_s);
-  Kokkos::deep_copy(tie_.planar_mass, h_m);
+  tie_.force = ViewN<double, 2>("tamp::tie::force", n);
 
   fem_ = &fem;
   P.reserve(P.n_real + n + (P.n_total - P.n_real) + 64);

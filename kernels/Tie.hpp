@@ -27,7 +27,7 @@ struct TieParticles {
   View1<int> edge_a, edge_b;     // the interface edge it hands its force to
   View1<double> edge_s;          // share of its force for node b (1 - edge_s for node a)
   View1<double> planar_mass;     // rho0 times its share of the element's (r, z) area, kg/m
-  ViewN<double, 2> normal;       // outward normal of the FEM at the interface (r, z)
+  double normal_r = 0, normal_z = 0;  // outward normal of the FEM at the interface
   View1<double> depth;           // reference distance to the interface, m
   View1<double> face_area;       // first row: ring area of its interface segment, m2; else 0
   ViewN<double, 2> force;        // interface force handed to the FEM, N (per ring)
@@ -106,7 +106,7 @@ struct TieTraction {
   View1<double> planar_mass, rho;
   ViewN<double, 4> sigma;
   View1<int> offsets, neighbours;
-  ViewN<double, 2> normal;
+  double nr, nz;  // outward normal of the FEM at the interface
   View1<double> depth, face_area;
   ViewN<double, 2> force;
   double h;
@@ -118,7 +118,6 @@ struct TieTraction {
       return;
     }
     const int b = n_real + k;
-    const double nr = normal(k, 0), nz = normal(k, 1);
     const double pr = x(b, 0) + depth(k) * nr, pz = x(b, 1) + depth(k) * nz;
     const Wendland2D W(h);
     double A00 = 0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;

@@ -35,4 +35,20 @@ inline HostState host_state(const Simulation& sim) {
   return {s.r, s.z, s.v_r, s.v_z, s.s_rr, s.s_zz, s.s_tt, s.s_rz};
 }
 
+// Kinetic + elastic strain energy of the real particles (J): the wave energy of an
+// elastic column. Strain energy density p^2/(2K) + s:s/(4G), volume m / rho.
+inline double wave_energy(const Simulation& sim) {
+  const ParticleSnapshot s = sim.snapshot();
+  const MaterialParams m = sim.materials()[0];
+  double e = 0;
+  for (size_t i = 0; i < s.r.size(); ++i) {
+    const double p = (s.s_rr[i] + s.s_zz[i] + s.s_tt[i]) / 3;
+    const double drr = s.s_rr[i] - p, dzz = s.s_zz[i] - p, dtt = s.s_tt[i] - p;
+    const double ss = drr * drr + dzz * dzz + dtt * dtt + 2 * s.s_rz[i] * s.s_rz[i];
+    const double w = p * p / (2 * m.bulk_modulus) + ss / (4 * m.shear_modulus);
+    e += 0.5 * s.mass[i] * (s.v_r[i] * s.v_r[i] + s.v_z[i] * s.v_z[i]) + w * s.mass[i] / s.density[i];
+  }
+  return e;
+}
+
 }  // namespace tamp::testing

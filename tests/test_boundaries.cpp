@@ -10,22 +10,6 @@ using namespace tamp;
 using namespace tamp::testing;
 
 namespace {
-// Kinetic + elastic strain energy of the real particles (J): the wave energy of an
-// elastic column. Strain energy density p^2/(2K) + s:s/(4G), volume m / rho.
-double wave_energy(const Simulation& sim) {
-  const ParticleSnapshot s = sim.snapshot();
-  const MaterialParams m = sim.materials()[0];
-  double e = 0;
-  for (size_t i = 0; i < s.r.size(); ++i) {
-    const double p = (s.s_rr[i] + s.s_zz[i] + s.s_tt[i]) / 3;
-    const double drr = s.s_rr[i] - p, dzz = s.s_zz[i] - p, dtt = s.s_tt[i] - p;
-    const double ss = drr * drr + dzz * dzz + dtt * dtt + 2 * s.s_rz[i] * s.s_rz[i];
-    const double w = p * p / (2 * m.bulk_modulus) + ss / (4 * m.shear_modulus);
-    e += 0.5 * s.mass[i] * (s.v_r[i] * s.v_r[i] + s.v_z[i] * s.v_z[i]) + w * s.mass[i] / s.density[i];
-  }
-  return e;
-}
-
 // A 2 ms compression pulse is driven into the top of a laterally confined column of the
 // lab clay (0.6 m, roller side); returns the wave energy left in the column once the pulse
 // has met the base, relative to the energy of the incident pulse.

@@ -10,22 +10,6 @@
 using namespace tamp;
 using namespace tamp::testing;
 
-namespace {
-// Kinetic + elastic strain energy of the real particles (J).
-double particle_wave_energy(const Simulation& sim) {
-  const ParticleSnapshot s = sim.snapshot();
-  const MaterialParams m = sim.materials()[0];
-  double e = 0;
-  for (size_t i = 0; i < s.r.size(); ++i) {
-    const double p = (s.s_rr[i] + s.s_zz[i] + s.s_tt[i]) / 3;
-    const double drr = s.s_rr[i] - p, dzz = s.s_zz[i] - p, dtt = s.s_tt[i] - p;
-    const double ss = drr * drr + dzz * dzz + dtt * dtt + 2 * s.s_rz[i] * s.s_rz[i];
-    const double w = p * p / (2 * m.bulk_modulus) + ss / (4 * m.shear_modulus);
-    e += 0.5 * s.mass[i] * (s.v_r[i] * s.v_r[i] + s.v_z[i] * s.v_z[i]) + w * s.mass[i] / s.density[i];
-  }
-  return e;
-}
-}  // namespace
 
 TEST_CASE("Tie: a compression pulse crosses from the particles into the elements", "[tie][fem][verification]") {
   // Laterally confined column of the elastic lab clay, radius 20 mm: particles (2.5 mm) for
@@ -82,7 +66,7 @@ TEST_CASE("Tie: a compression pulse crosses from the particles into the elements
       sim.prescribe_velocity(top, 0.0, 0.0);  // the top is held from now on
       pulse_on = false;
     }
-    if (e_incident < 0 && sim.time() >= t_incident) e_incident = particle_wave_energy(sim);
+    if (e_incident < 0 && sim.time() >= t_incident) e_incident = wave_energy(sim);
     const double t = sim.time();
     const double va = row_above(), vb = row_below();
     auto crossing = [&](double p, double now) { return tprev + (t - tprev) * (half - p) / (now - p); };
@@ -90,7 +74,7 @@ TEST_CASE("Tie: a compression pulse crosses from the particles into the elements
     if (t_below < 0 && vb <= half) t_below = crossing(pb, vb);
     pa = va; pb = vb; tprev = t;
   }
-  const double e_left = particle_wave_energy(sim);
+  const double e_left = wave_energy(sim);
   const fem::FemEnergies fe = model.energies();
   const double c_measured = 0.3 / (t_below - t_above);
   std::printf("[tie] %d tie particles, %ld steps: incident %.4e J, left in the particles %.4e J (%.2f %%), "

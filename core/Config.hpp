@@ -76,6 +76,19 @@ struct WallSpec {
   double spring_distance = -1.0;
 };
 
+// Finite elements for the soil outside a zone of particles (docs/coupling.md): the blocks
+// are meshed with 4-node axisymmetric quads everywhere except inside the SPH zone, which
+// keeps its particles; elements and particles are tied along the zone's boundary. The
+// deck's walls act on the element nodes (and on particles where the zone reaches them).
+struct FemSpec {
+  bool enabled = false;
+  double element_size = 0.0;      // m, largest element edge; 0 = the particle spacing
+  double zone_r_min = 0, zone_r_max = 0;  // m, the SPH zone (particles inside, elements outside)
+  double zone_z_min = 0, zone_z_max = 0;  // m
+  double hourglass_coefficient = 0.1;     // stiffness-form hourglass control (docs/fem.md)
+  double cfl = 0.8;               // element time step fraction of L/c_p (the run's cfl for particles)
+};
+
 // Pounder <-> particle contact (kernels/RigidContact.hpp, docs/contact.md).
 struct ContactSpec {
   double static_friction = 0.5;   // FS
@@ -141,6 +154,7 @@ struct Config {
   std::vector<MaterialSpec> materials;
   std::vector<BlockSpec> blocks;
   WallSpec bottom, top, outer;    // the axis r = 0 is always a symmetry line
+  FemSpec fem;
   ContactSpec contact;
   PounderSpec pounder;
   BackfillSpec backfill;

@@ -609,6 +609,50 @@ void read_pounder(const Table& top, PounderSpec& p) {
   p.profile_segments = static_cast<int>(integer(t, "profile_segments", p.profile_segments, 1, 40));
 }
 
+// [fem]: elements outside an SPH zone. The zone and the blocks must fall on the particle
+// grid (multiples of the spacing from each block's corner) so that the particles fill the
+// zone exactly; the elements follow every block and zone edge.
+void read_fem(const Table& top, Config& cfg) {
+  FemSpec& f = cfg.fem;
+  const toml::table* tt = sub_table(top, "fem");
+  if (!tt) return;
+  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "sph_zone", "hourglass_coefficient", "cfl"});
+  f.enabled = boolean(t, "enabled", true);
+  const double dp = cfg.sph.spacing;
+  f.element_size = number(t, "element_size", dp, ge(dp), "m (>= sph.spacing: finer elements than particles are not tied)");
+  f.hourglass_coefficient = number(t, "hourglass_coefficient", f.hourglass_coefficient, ge_le(0, 1), "");
+  f.cfl = number(t, "cfl", f.cfl, gt_le(0, 1), "");
+  const std::string zone_shape = "an inline table { r = [r_min, r_max], z = [z_min, z_max] } (m) inside the blocks";
+  const toml::table* zt = sub_table(t, "sph_zone");
+  if (!zt) {
+    t.rep().missing(t.path("sph_zone"), zone_shape);
+  }
+  const Table z(top.rep(), *zt, t.path("sph_zone"), {"r", "z"});
+  const auto r = opt_pair(z, "r", "[r_min, r_max] with 0 <= r_min < r_max (m)");
+  const auto zz = opt_pair(z, "z", "[z_min, z_max] with z_min < z_max (m)");
+  if (!r) z.rep().missing(z.path("r"), "[r_min, r_max] with 0 <= r_min < r_max (m)");
+  if (!zz) z.rep().missing(z.path("z"), "[z_min, z_max] with z_min < z_max (m)");
+  if (!((*r)[0] >= 0 && (*r)[0] < (*r)[1])) z.rep().out_of_range(z.path("r"), *z.find("r"), "0 <= r_min < r_max (m)");
+  if (!((*zz)[0] < (*zz)[1])) z.rep().out_of_range(z.path("z"), *z.find("z"), "z_min < z_max (m)");
+  f.zone_r_min = (*r)[0]; f.zone_r_max = (*r)[1];
+  f.zone_z_min = (*zz)[0]; f.zone_z_max = (*zz)[1];
+  if (!f.enabled) return;
+  if (f.zone_r_min != 0.0)
+    z.rep().out_of_range(z.path("r"), *z.find("r"), "r = [0, r_max]: the zone is around the axis (a ring-shaped zone is not supported)");
+  // the zone lies on the particle grid of the blocks it cuts
+  auto on_grid = [&](double v, double origin) {
+    const double k = (v - origin) / dp;
+    return std::fabs(k - std::round(k)) < 1e-6;
+  };
+  for (const auto& b : cfg.blocks) {
+    const bool cuts = f.zone_r_max > b.r_min && f.zone_r_min < b.r_max && f.zone_z_max > b.z_min && f.zone_z_min < b.z_max;
+    if (!cuts) continue;
+    if (!on_grid(f.zone_r_max, b.r_min) || !on_grid(f.zone_z_min, b.z_min) || !on_grid(f.zone_z_max, b.z_min))
+      z.rep().out_of_range(z.path("r"), *z.find("r"),
+                           "zone edges at whole particle spacings (" + fmt_num(dp) + " m) from the corner of each block it cuts");
+  }
+}
+
 void read_backfill(const Table& top, Config& cfg) {
   BackfillSpec& b = cfg.backfill;
   const toml::table* tt = sub_table(top, "backfill");
@@ -674,7 +718,7 @@ Config build(const toml::table& root, const std::string& label) {
   cfg.source_file = label;
   const Table top(rep, root, "", {"run", "sph", "gravity", "damping", "gravity_ramp", "initial_stress", "materials",
                                          "blocks", "boundaries", "contact", "pounder", "backfill", "schedule",
-                                         "tracers"});
+                                         "tracers", "fem"});
   cfg.gravity = number(top, "gravity", cfg.gravity, ge(0), "m/s2");
   cfg.damping = number(top, "damping", cfg.damping, ge(0), "1/s");
   cfg.gravity_ramp = number(top, "gravity_ramp", cfg.gravity_ramp, ge(0), "s");
@@ -696,6 +740,7 @@ Config build(const toml::table& root, const std::string& label) {
     cfg.blocks.push_back(read_block(b, cfg.materials));
   }
   read_boundaries(top, cfg);
+  read_fem(top, cfg);
   read_contact(top, cfg.contact);
   read_backfill(top, cfg);
   read_schedule(top, cfg);
@@ -798,6 +843,16 @@ std::string to_toml(const Config& c) {
   o << "bottom = " << wall_text(c.bottom, "z") << "\n";
   o << "top = " << wall_text(c.top, "z") << "\n";
   o << "outer = " << wall_text(c.outer, "r") << "\n";
+
+  if (c.fem.enabled || c.fem.zone_r_max > 0) {
+    o << "\n[fem]\n";
+    o << "enabled = " << (c.fem.enabled ? "true" : "false") << "\n";
+    o << "element_size = " << fmt_float(c.fem.element_size) << "  # m\n";
+    o << "sph_zone = { r = [" << fmt_float(c.fem.zone_r_min) << ", " << fmt_float(c.fem.zone_r_max) << "], z = ["
+      << fmt_float(c.fem.zone_z_min) << ", " << fmt_float(c.fem.zone_z_max) << "] }  # m\n";
+    o << "hourglass_coefficient = " << fmt_float(c.fem.hourglass_coefficient) << "\n";
+    o << "cfl = " << fmt_float(c.fem.cfl) << "\n";
+  }
 
   o << "\n[contact]\n";
   o << "static_friction = " << fmt_float(c.contact.static_friction) << "\n";

@@ -1,6 +1,7 @@
 // A small host driver for the axisymmetric quad FEM (kernels/FemQuad.hpp): a structured
-// mesh of one rectangular block [r0, r1] x [z0, z1] with nr x nz elements and one material,
-// nodal boundary conditions, and central-difference stepping. Header-only. docs/fem.md.
+// mesh on a grid of node lines r_i, z_j (graded or not) whose cells each hold an element
+// of one material or are left empty (where particles are, for an SPH-FEM tie), nodal
+// boundary conditions, and central-difference stepping. Header-only. docs/fem.md.
 #pragma once
 #include <cmath>
 #include <stdexcept>
@@ -15,6 +16,25 @@ namespace tamp::fem {
 struct FemBlock {
   double r0 = 0, r1 = 1, z0 = 0, z1 = 1;  // m
   int nr = 1, nz = 1;                     // elements along r and z
+};
+
+// A structured grid of node lines; cell (i, j) lies between r[i], r[i+1] and z[j], z[j+1].
+// material[j * nr + i] is the cell's material (an index into the model's material list) or
+// -1 for no element. Nodes keep their grid number j * (nr + 1) + i; nodes of no element are
+// inert (fixed, unit mass) so that the kernels need no special case.
+struct FemGrid {
+  std::vector<double> r, z;   // m, strictly increasing
+  std::vector<int> material;  // per cell, -1 = empty
+  int nr() const { return static_cast<int>(r.size()) - 1; }
+  int nz() const { return static_cast<int>(z.size()) - 1; }
+  // A uniform block of one material (index 0).
+  static FemGrid uniform(const FemBlock& b) {
+    FemGrid g;
+    for (int i = 0; i <= b.nr; ++i) g.r.push_back(b.r0 + (b.r1 - b.r0) * i / b.nr);
+    for (int j = 0; j <= b.nz; ++j) g.z.push_back(b.z0 + (b.z1 - b.z0) * j / b.nz);
+    g.material.assign(static_cast<size_t>(b.nr) * b.nz, 0);
+    return g;
+  }
 };
 
 // Nodal force assembly: a ScatterView duplicated per thread on host back ends (atomic on
@@ -45,11 +65,30 @@ struct FemEnergies {
 class FemModel {
  public:
   FemModel(const MaterialParams& material, const FemBlock& block, const FemOptions& options = {})
-      : block_(block), opt_(options) {
-    if (block.nr < 1 || block.nz < 1 || !(block.r1 > block.r0) || !(block.z1 > block.z0) ||
-        block.r0 < 0)
-      throw std::invalid_argument("FemModel: bad block");
-    const int nn = (block.nr + 1) * (block.nz + 1), ne = block.nr * block.nz;
+      : FemModel(std::vector<MaterialParams>{material}, checked_uniform(block), options) {}
+
+  FemModel(const std::vector<MaterialParams>& materials, const FemGrid& grid, const FemOptions& options = {})
+      : grid_(grid), opt_(options), materials_host_(materials) {
+    const int nr = grid.nr(), nz = grid.nz();
+    if (nr < 1 || nz < 1 || grid.material.size() != static_cast<size_t>(nr) * nz || grid.r.front() < 0)
+      throw std::invalid_argument("FemModel: bad grid (node lines, cell materials or r < 0)");
+    for (int i = 0; i < nr; ++i)
+      if (!(grid.r[i + 1] > grid.r[i])) throw std::invalid_argument("FemModel: r lines not increasing");
+    for (int j = 0; j < nz; ++j)
+      if (!(grid.z[j + 1] > grid.z[j])) throw std::invalid_argument("FemModel: z lines not increasing");
+    block_ = FemBlock{grid.r.front(), grid.r.back(), grid.z.front(), grid.z.back(), nr, nz};
+    cell_element_.assign(grid.material.size(), -1);
+    for (int j = 0; j < nz; ++j)
+      for (int i = 0; i < nr; ++i) {
+        const int m = grid.material[j * nr + i];
+        if (m < -1 || m >= static_cast<int>(materials.size()))
+          throw std::invalid_argument("FemModel: cell material " + std::to_string(m) + " not in the material list");
+        if (m < 0) continue;
+        cell_element_[j * nr + i] = static_cast<int>(element_cell_.size());
+        element_cell_.push_back(j * nr + i);
+      }
+    const int nn = (nr + 1) * (nz + 1), ne = static_cast<int>(element_cell_.size());
+    if (ne == 0) throw std::invalid_argument("FemModel: the grid has no element");
     mesh_.n_nodes = nn;
     mesh_.n_elements = ne;
     mesh_.x = ViewN<double, 2>("fem::x", nn);
@@ -75,31 +114,36 @@ class FemModel {
     mesh_.hourglass_force = ViewN<double, 2>("fem::hourglass_force", ne);
     mesh_.internal_energy = View1<double>("fem::internal_energy", ne);
     mesh_.hourglass_energy = View1<double>("fem::hourglass_energy", ne);
-    mesh_.materials = Kokkos::View<MaterialParams*, MemSpace>("fem::materials", 1);
+    mesh_.materials = Kokkos::View<MaterialParams*, MemSpace>("fem::materials", materials.size());
     auto mat_h = Kokkos::create_mirror_view(mesh_.materials);
-    mat_h(0) = material;
+    for (size_t k = 0; k < materials.size(); ++k) mat_h(k) = materials[k];
     Kokkos::deep_copy(mesh_.materials, mat_h);
-    density_ = material.density;
 
     auto conn_h = Kokkos::create_mirror_view(mesh_.conn);
-    for (int j = 0; j < block.nz; ++j)
-      for (int i = 0; i < block.nr; ++i) {
-        const int e = element(i, j);
-        conn_h(e, 0) = node(i, j);
-        conn_h(e, 1) = node(i + 1, j);
-        conn_h(e, 2) = node(i + 1, j + 1);
-        conn_h(e, 3) = node(i, j + 1);
-      }
+    auto emat_h = Kokkos::create_mirror_view(mesh_.material);
+    node_used_.assign(nn, 0);
+    for (int e = 0; e < ne; ++e) {
+      const int i = element_cell_[e] % nr, j = element_cell_[e] / nr;
+      conn_h(e, 0) = node(i, j);
+      conn_h(e, 1) = node(i + 1, j);
+      conn_h(e, 2) = node(i + 1, j + 1);
+      conn_h(e, 3) = node(i, j + 1);
+      emat_h(e) = grid.material[element_cell_[e]];
+      for (int k = 0; k < 4; ++k) node_used_[conn_h(e, k)] = 1;
+    }
     Kokkos::deep_copy(mesh_.conn, conn_h);
+    Kokkos::deep_copy(mesh_.material, emat_h);
 
     std::vector<double> r(nn), z(nn);
-    for (int j = 0; j <= block.nz; ++j)
-      for (int i = 0; i <= block.nr; ++i) {
-        r[node(i, j)] = block.r0 + (block.r1 - block.r0) * i / block.nr;
-        z[node(i, j)] = block.z0 + (block.z1 - block.z0) * j / block.nz;
+    for (int j = 0; j <= nz; ++j)
+      for (int i = 0; i <= nr; ++i) {
+        r[node(i, j)] = grid.r[i];
+        z[node(i, j)] = grid.z[j];
       }
     set_node_positions(r, z);
-    if (block.r0 == 0 && opt_.axis_symmetry) set_side(FemSide::Inner, FemBc::Roller);
+    for (int n = 0; n < nn; ++n)
+      if (!node_used_[n]) set_node_bc(n, BC_R | BC_Z);
+    if (block_.r0 == 0 && opt_.axis_symmetry) set_side(FemSide::Inner, FemBc::Roller);
     scatter_ = Kokkos::Experimental::create_scatter_view(mesh_.f_int);
     atomic_scatter_ = Kokkos::Experimental::create_scatter_view(
         Kokkos::Experimental::ScatterSum{}, Kokkos::Experimental::ScatterNonDuplicated{},
@@ -116,11 +160,29 @@ class FemModel {
       default: return node(k, block_.nz);
     }
   }
+  // The element along the k-th edge of a side (-1: none there).
+  int side_element(FemSide side, int k) const {
+    switch (side) {
+      case FemSide::Inner: return element(0, k);
+      case FemSide::Outer: return element(block_.nr - 1, k);
+      case FemSide::Bottom: return element(k, 0);
+      default: return element(k, block_.nz - 1);
+    }
+  }
   int side_edges(FemSide side) const {
     return side == FemSide::Inner || side == FemSide::Outer ? block_.nz : block_.nr;
   }
-  int element(int i, int j) const { return j * block_.nr + i; }
-  const FemBlock& block() const { return block_; }
+  // The element of cell (i, j), or -1 where the cell is empty.
+  int element(int i, int j) const { return cell_element_[j * block_.nr + i]; }
+  // Grid cell (i, j) of element e.
+  int element_i(int e) const { return element_cell_[e] % block_.nr; }
+  int element_j(int e) const { return element_cell_[e] / block_.nr; }
+  // Material of element e (index into materials()).
+  int element_material(int e) const { return grid_.material[element_cell_[e]]; }
+  bool node_used(int n) const { return node_used_[n] != 0; }
+  const FemBlock& block() const { return block_; }  // the grid's bounding box and cell counts
+  const FemGrid& grid() const { return grid_; }
+  const std::vector<MaterialParams>& materials() const { return materials_host_; }
   const FemOptions& options() const { return opt_; }
   FemMesh& mesh() { return mesh_; }
   const FemMesh& mesh() const { return mesh_; }
@@ -151,10 +213,13 @@ class FemModel {
       QuadGeometry g;
       if (!quad_geometry(re, ze, g))
         throw std::invalid_argument("FemModel: element " + std::to_string(e) + " is inverted");
-      emass_h(e) = density_ * g.volume;
+      const double rho = materials_host_[element_material(e)].density;
+      emass_h(e) = rho * g.volume;
       quad_mass_weights(re, ze, w);
-      for (int k = 0; k < 4; ++k) mass_h(conn_h(e, k)) += density_ * w[k];
+      for (int k = 0; k < 4; ++k) mass_h(conn_h(e, k)) += rho * w[k];
     }
+    for (int i = 0; i < nn; ++i)
+      if (!(mass_h(i) > 0)) mass_h(i) = 1.0;  // a node of no element (inert, fixed)
     Kokkos::deep_copy(mesh_.x, x_h);
     Kokkos::deep_copy(mesh_.x0, x_h);
     Kokkos::deep_copy(mesh_.mass, mass_h);
@@ -196,17 +261,18 @@ class FemModel {
   // hold_boundary_forces(). Uses the material's initial density.
   void set_non_reflecting(FemSide side, double spring_distance) {
     if (spring_distance < 0) throw std::invalid_argument("FemModel::set_non_reflecting: spring_distance < 0");
-    auto mat_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.materials);
-    const MaterialParams& m = mat_h(0);
-    const double rho = m.density, G = m.shear_modulus;
-    const double cp = std::sqrt(m.p_wave_modulus() / rho), cs = std::sqrt(G / rho);
-    const double kn = spring_distance > 0 ? 4.0 * G / (3.0 * spring_distance) : 0.0, kt = 0.5 * kn;
     auto x_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.x0);
     auto c_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.dashpot);
     auto k_h = Kokkos::create_mirror_view_and_copy(HostSpace(), mesh_.spring);
     const bool r_side = (side == FemSide::Inner || side == FemSide::Outer);
     const int nrm = r_side ? 0 : 1, tan = 1 - nrm;
     for (int k = 0; k < side_edges(side); ++k) {
+      const int e = side_element(side, k);
+      if (e < 0) continue;  // no element along this piece of the side
+      const MaterialParams& m = materials_host_[element_material(e)];
+      const double rho = m.density, G = m.shear_modulus;
+      const double cp = std::sqrt(m.p_wave_modulus() / rho), cs = std::sqrt(G / rho);
+      const double kn = spring_distance > 0 ? 4.0 * G / (3.0 * spring_distance) : 0.0, kt = 0.5 * kn;
       const int a = side_node(side, k), b = side_node(side, k + 1);
       const double ra = x_h(a, 0), rb = x_h(b, 0);
       const double len = std::hypot(x_h(b, 0) - ra, x_h(b, 1) - x_h(a, 1));
@@ -249,6 +315,32 @@ class FemModel {
     Kokkos::deep_copy(mesh_.stress, s_h);
     forces_valid_ = false;
   }
+
+  // Stress of every element (host vector, 4 components rr, zz, tt, rz per element, Pa).
+  void set_element_stress(const std::vector<double>& s) {
+    if (s.size() != 4 * static_cast<size_t>(mesh_.n_elements))
+      throw std::invalid_argument("FemModel::set_element_stress: size");
+    auto s_h = Kokkos::create_mirror_view(mesh_.stress);
+    for (int e = 0; e < mesh_.n_elements; ++e)
+      for (int c = 0; c < 4; ++c) s_h(e, c) = s[4 * e + c];
+    Kokkos::deep_copy(mesh_.stress, s_h);
+    forces_valid_ = false;
+  }
+  // Centre (r, z) of element e's grid cell in the reference configuration, m.
+  double element_r0(int e) const { return 0.5 * (grid_.r[element_i(e)] + grid_.r[element_i(e) + 1]); }
+  double element_z0(int e) const { return 0.5 * (grid_.z[element_j(e)] + grid_.z[element_j(e) + 1]); }
+
+  // Clock of a restored state (checkpoints): the time, steps and the last step; the forces
+  // are recomputed from the restored stresses and positions before the next step.
+  void restore_clock(double time, long steps, double last_dt) {
+    time_ = time; steps_ = steps; dt_prev_ = last_dt;
+    forces_valid_ = false;
+    stable_dt_ = 0;
+  }
+
+  // Mass-proportional damping (1/s) and gravity (m/s2) from the next step on.
+  void set_damping(double d) { opt_.damping = d; }
+  void set_gravity(double g) { opt_.gravity = g; }
 
   // Element pass alone: the strain increment of the current velocities over dt (dt = 0:
   // none), the stress update, and the assembled internal forces at the current positions.
@@ -358,12 +450,21 @@ class FemModel {
     if (flags & BC_Z) vbc_h(n, 1) = vz;
   }
 
+  static FemGrid checked_uniform(const FemBlock& b) {
+    if (b.nr < 1 || b.nz < 1 || !(b.r1 > b.r0) || !(b.z1 > b.z0) || b.r0 < 0)
+      throw std::invalid_argument("FemModel: bad block");
+    return FemGrid::uniform(b);
+  }
+
+  FemGrid grid_;
   FemBlock block_;
   FemOptions opt_;
+  std::vector<MaterialParams> materials_host_;
+  std::vector<int> cell_element_, element_cell_;  // cell -> element (-1: empty), element -> cell
+  std::vector<char> node_used_;
   FemMesh mesh_;
   ForceScatter scatter_;
   AtomicForceScatter atomic_scatter_;
-  double density_ = 0;
   double time_ = 0, dt_prev_ = 0, stable_dt_ = 0, dt_kick_ = 0;
   long steps_ = 0;
   bool forces_valid_ = false;

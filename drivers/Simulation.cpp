@@ -1,5 +1,6 @@
 #include "drivers/Simulation.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -53,17 +54,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   auto add_wall = [&](const WallSpec& w, int axis, int side) {
     if (w.type == WallType::None) return;
     if (w.type == WallType::NonReflecting) {
-      // Automatic spring distance: the extent of the initial blocks normal to the plane
-      // (the distance to the farthest soil, where the blows act: Deeks & Randolph's R).
-      double R = w.spring_distance;
-      if (R < 0) {
-        R = 0;
-        for (const BlockSpec& b : config_.blocks) {
-          const double lo = axis == 0 ? b.r_min : b.z_min, hi = axis == 0 ? b.r_max : b.z_max;
-          R = std::max(R, side > 0 ? hi - w.position : w.position - lo);
-        }
-      }
-      non_reflecting_.plane[non_reflecting_.count++] = MirrorPlane{axis, w.position, side, 0, R};
+      non_reflecting_.plane[non_reflecting_.count++] = MirrorPlane{axis, w.position, side, 0, spring_distance(w, axis, side)};
       return;
     }
     planes.plane[planes.count++] = MirrorPlane{axis, w.position, side, w.type == WallType::Fixed ? 1 : 0};
@@ -79,12 +70,99 @@ Simulation::Simulation(const Config& config) : config_(config) {
   ensure_pair_storage();
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
                        PairKernelFactors{particles_.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+  if (config_.fem.enabled) build_fem();  // elements outside the SPH zone, tied to the particles
   if (config_.initial_stress == "geostatic") {
     set_geostatic_stress();  // also updates the pair stress and the accelerations
   } else {
     update_pair_stress();
     compute_acceleration();
   }
+}
+
+// Spring distance R of a non-reflecting wall: the deck's, or automatically the extent of the
+// initial blocks normal to the plane (the distance to the farthest soil, where the blows
+// act: Deeks & Randolph's R). side > 0: the soil lies on the + side of the plane.
+double Simulation::spring_distance(const WallSpec& w, int axis, int side) const {
+  if (w.spring_distance >= 0) return w.spring_distance;
+  double R = 0;
+  for (const BlockSpec& b : config_.blocks) {
+    const double lo = axis == 0 ? b.r_min : b.z_min, hi = axis == 0 ? b.r_max : b.z_max;
+    R = std::max(R, side > 0 ? hi - w.position : w.position - lo);
+  }
+  return R;
+}
+
+// The deck's [fem] mesh (docs/coupling.md): node lines at every block and zone edge, each
+// interval split into equal elements no longer than fem.element_size; a cell takes the
+// material of the block around its centre, or none inside the SPH zone or outside every
+// block. The deck's walls act on the sides of the mesh; the mesh is tied to the particles.
+void Simulation::build_fem() {
+  const FemSpec& f = config_.fem;
+  auto lines = [&](std::vector<double> cuts) {
+    std::sort(cuts.begin(), cuts.end());
+    std::vector<double> out{cuts.front()};
+    for (size_t k = 1; k < cuts.size(); ++k) {
+      const double len = cuts[k] - out.back();
+      if (len < 1e-9) continue;
+      const int n = std::max(1, static_cast<int>(std::ceil(len / f.element_size - 1e-6)));
+      const double a = out.back();
+      for (int q = 1; q <= n; ++q) out.push_back(q == n ? cuts[k] : a + len * q / n);
+    }
+    return out;
+  };
+  std::vector<double> rc{f.zone_r_min, f.zone_r_max}, zc{f.zone_z_min, f.zone_z_max};
+  for (const BlockSpec& b : config_.blocks) {
+    rc.push_back(b.r_min); rc.push_back(b.r_max);
+    zc.push_back(b.z_min); zc.push_back(b.z_max);
+  }
+  fem::FemGrid grid;
+  grid.r = lines(rc);
+  grid.z = lines(zc);
+  const int nr = grid.nr(), nz = grid.nz();
+  grid.material.assign(static_cast<size_t>(nr) * nz, -1);
+  std::vector<int> deck_of;  // FEM material -> deck material
+  std::vector<MaterialParams> mats;
+  std::vector<std::string> names;
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nr; ++i) {
+      const double r = 0.5 * (grid.r[i] + grid.r[i + 1]), z = 0.5 * (grid.z[j] + grid.z[j + 1]);
+      if (r > f.zone_r_min && r < f.zone_r_max && z > f.zone_z_min && z < f.zone_z_max) continue;
+      for (const BlockSpec& b : config_.blocks) {
+        if (!(r > b.r_min && r < b.r_max && z > b.z_min && z < b.z_max)) continue;
+        int dm = 0;
+        for (size_t k = 0; k < config_.materials.size(); ++k)
+          if (config_.materials[k].name == b.material) dm = static_cast<int>(k);
+        const auto it = std::find(deck_of.begin(), deck_of.end(), dm);
+        if (it == deck_of.end()) {
+          deck_of.push_back(dm);
+          mats.push_back(materials_host_[dm]);
+          names.push_back(b.material);
+        }
+        grid.material[j * nr + i] = static_cast<int>(std::find(deck_of.begin(), deck_of.end(), dm) - deck_of.begin());
+      }
+    }
+  fem::FemOptions opt;
+  opt.cfl = f.cfl;
+  opt.hourglass_coefficient = f.hourglass_coefficient;
+  opt.gravity = gravity_at(time_);
+  opt.damping = sph_.damping;
+  own_fem_ = std::make_unique<fem::FemModel>(mats, grid, opt);
+  fem::FemModel& m = *own_fem_;
+  auto wall = [&](const WallSpec& w, const char* name, fem::FemSide side, double edge, int axis, int soil_side) {
+    if (w.type == WallType::None) return;
+    if (std::fabs(w.position - edge) > 1e-9)
+      throw std::invalid_argument(std::string("boundaries.") + name + " at " + std::to_string(w.position) +
+                                  " m is not on the edge of the element mesh (" + std::to_string(edge) +
+                                  " m): with [fem] the walls bound the blocks");
+    if (w.type == WallType::Fixed) m.set_side(side, fem::FemBc::Fixed);
+    else if (w.type == WallType::Roller) m.set_side(side, fem::FemBc::Roller);
+    else m.set_non_reflecting(side, spring_distance(w, axis, soil_side));
+  };
+  wall(config_.bottom, "bottom", fem::FemSide::Bottom, grid.z.front(), 1, +1);
+  wall(config_.top, "top", fem::FemSide::Top, grid.z.back(), 1, -1);
+  wall(config_.outer, "outer", fem::FemSide::Outer, grid.r.back(), 0, -1);
+  m.hold_boundary_forces();
+  tie_fem(m, names);
 }
 
 void Simulation::ensure_pair_storage() {
@@ -168,7 +246,13 @@ void Simulation::build_particles() {
   using Grid = BlockGrid;
   std::vector<Grid> grids;
   int total = 0;
-  for (const auto& b : config_.blocks) {
+  for (BlockSpec b : config_.blocks) {
+    if (config_.fem.enabled) {  // particles only inside the SPH zone; elements elsewhere
+      const FemSpec& f = config_.fem;
+      b.r_min = std::max(b.r_min, f.zone_r_min); b.r_max = std::min(b.r_max, f.zone_r_max);
+      b.z_min = std::max(b.z_min, f.zone_z_min); b.z_max = std::min(b.z_max, f.zone_z_max);
+      if (!(b.r_max - b.r_min > 0.5 * dp && b.z_max - b.z_min > 0.5 * dp)) continue;
+    }
     int mat = -1;
     for (size_t k = 0; k < config_.materials.size(); ++k)
       if (config_.materials[k].name == b.material) mat = static_cast<int>(k);
@@ -228,7 +312,7 @@ void Simulation::compute_acceleration() {
   if (fem_ && tie_.count > 0) {  // the interface traction from the stresses of both sides
     Kokkos::parallel_for("tamp::tie::traction", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieTraction{P.x, P.planar_mass, P.rho, P.sigma, neighbours_.offsets, neighbours_.neighbours,
-                                     tie_.normal_r, tie_.normal_z, tie_.depth, tie_.face_area, tie_.force, sph_.h,
+                                     tie_.normal, tie_.depth, tie_.face_area, tie_.force, sph_.h,
                                      P.n_real});
     fem::FemMesh& mesh = fem_->mesh();
     Kokkos::deep_copy(mesh.f_tie, 0.0);
@@ -292,10 +376,11 @@ void Simulation::place_body(double r0, double z0, double v_r, double v_z) {
 double Simulation::add_particles(const std::vector<NewParticle>& list) {
   if (list.empty()) return 0.0;
   Particles& P = particles_;
-  if (P.n_virtual > 0) throw std::logic_error("add_particles: not supported with an SPH-FEM tie yet");
+  // The new particles go after the real ones, over the tie particles' slots; the tie
+  // particles move up and are refilled from the elements below.
   const int n0 = P.n_real, count = static_cast<int>(list.size());
   const int n1 = n0 + count;
-  P.reserve(n1 + n1 / 2 + 64);
+  P.reserve(n1 + P.n_virtual + (n1 + P.n_virtual) / 2 + 64);
   View1<double> hr_dev("tamp::new_r", count), hz_dev("tamp::new_z", count);
   View1<int> hm_dev("tamp::new_mat", count);
   auto hr = Kokkos::create_mirror_view(hr_dev);
@@ -338,7 +423,11 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
                           },
                           added);
   P.n_real = n1;
-  P.n_total = n1;
+  P.n_total = n1 + P.n_virtual;
+  if (fem_) {
+    sync_tie_kinematics();
+    sync_tie_stress();
+  }
   rebuild_lists();
   update_pair_stress();
   compute_acceleration();
@@ -393,6 +482,7 @@ void Simulation::step(double dt_override) {
   dt_ = dt;
   profile_mark(&StepProfile::other);  // the stable step
   sph_.gravity = gravity_at(time_ + dt);  // the accelerations below are those at t + dt
+  if (fem_) fem_->set_gravity(sph_.gravity);
   using policy = Kokkos::RangePolicy<ExecSpace>;
   const policy reals(0, P.n_real);
 
@@ -491,6 +581,15 @@ struct GeostaticLayers {
   static constexpr int max_layers = 16;
   double z_bot[max_layers], z_top[max_layers], gamma[max_layers];
   int n = 0;
+  // sigma_zz at height z: minus the weight of the layers above per unit area, Pa
+  KOKKOS_INLINE_FUNCTION double sigma_v(double z) const {
+    double sv = 0;
+    for (int k = 0; k < n; ++k) {
+      const double lo = math::max(z, z_bot[k]);
+      if (z_top[k] > lo) sv -= gamma[k] * (z_top[k] - lo);
+    }
+    return sv;
+  }
 };
 }  // namespace
 
@@ -512,12 +611,7 @@ void Simulation::set_geostatic_stress(double k0) {
   auto mats = materials_;
   Kokkos::parallel_for("tamp::geostatic_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
                        KOKKOS_LAMBDA(int i) {
-                         const double z = x(i, 1);
-                         double sv = 0;
-                         for (int k = 0; k < layers.n; ++k) {
-                           const double lo = math::max(z, layers.z_bot[k]);
-                           if (layers.z_top[k] > lo) sv -= layers.gamma[k] * (layers.z_top[k] - lo);
-                         }
+                         const double sv = layers.sigma_v(x(i, 1));
                          const MaterialParams& m = mats(material(i));
                          const double K = m.bulk_modulus, G = m.shear_modulus;
                          const double nu = (3 * K - 2 * G) / (2 * (3 * K + G));
@@ -527,6 +621,20 @@ void Simulation::set_geostatic_stress(double k0) {
                          sigma(i, 2) = k * sv;
                          sigma(i, 3) = 0;
                        });
+  if (own_fem_) {  // the deck's elements: the same layered state at their centres
+    fem::FemModel& f = *own_fem_;
+    std::vector<double> st(4 * static_cast<size_t>(f.mesh().n_elements));
+    for (int e = 0; e < f.mesh().n_elements; ++e) {
+      const double sv = layers.sigma_v(f.element_z0(e));
+      const MaterialParams& m = f.materials()[f.element_material(e)];
+      const double K = m.bulk_modulus, G = m.shear_modulus, nu = (3 * K - 2 * G) / (2 * (3 * K + G));
+      const double k = k0 >= 0 ? k0 : nu / (1 - nu);
+      st[4 * e + 0] = k * sv; st[4 * e + 1] = sv; st[4 * e + 2] = k * sv; st[4 * e + 3] = 0.0;
+    }
+    f.set_element_stress(st);
+    f.hold_boundary_forces();
+    sync_tie_stress();
+  }
   hold_boundary_stress();
   update_pair_stress();
   compute_acceleration();
@@ -663,12 +771,27 @@ Checkpoint Simulation::save_state() {
   c.scalars["contact_energy"] = contact_energy_;
   c.scalars["contact_power"] = contact_power_;
   c.scalars["last_dt"] = dt_;
+  if (fem_) {  // the tied elements: node motion, element state, the held boundary forces
+    const fem::FemMesh& m = fem_->mesh();
+    put_rows(m.x, m.n_nodes, c.reals["fem_x"]);
+    put_rows(m.v, m.n_nodes, c.reals["fem_v"]);
+    put_rows(m.f_hold, m.n_nodes, c.reals["fem_f_hold"]);
+    put_rows(m.stress, m.n_elements, c.reals["fem_stress"]);
+    put_rows(m.strain_rate, m.n_elements, c.reals["fem_strain_rate"]);
+    put_rows(m.plastic_strain, m.n_elements, c.reals["fem_plastic_strain"]);
+    put_rows(m.compaction, m.n_elements, c.reals["fem_compaction"]);
+    put_rows(m.hourglass_force, m.n_elements, c.reals["fem_hourglass_force"]);
+    put_rows(m.internal_energy, m.n_elements, c.reals["fem_internal_energy"]);
+    put_rows(m.hourglass_energy, m.n_elements, c.reals["fem_hourglass_energy"]);
+    c.scalars["fem_time"] = fem_->time();
+    c.scalars["fem_steps"] = static_cast<double>(fem_->steps());
+    c.scalars["fem_last_dt"] = fem_->last_dt();
+  }
   return c;
 }
 
 void Simulation::load_state(const Checkpoint& c) {
   Particles& P = particles_;
-  if (P.n_virtual > 0) throw std::logic_error("load_state: checkpoints of an SPH-FEM tie are not supported yet");
   const int n = P.n_real;
   auto scalar = [&](const char* name) {
     auto it = c.scalars.find(name);
@@ -681,8 +804,9 @@ void Simulation::load_state(const Checkpoint& c) {
     throw std::invalid_argument("checkpoint has " + std::to_string(n_saved) +
                                 " particles; the deck makes " + std::to_string(n));
   if (n_saved > n) {
-    P.reserve(n_saved + n_saved / 2 + 64);
-    P.n_real = P.n_total = n_saved;
+    P.reserve(n_saved + P.n_virtual + (n_saved + P.n_virtual) / 2 + 64);
+    P.n_real = n_saved;
+    P.n_total = n_saved + P.n_virtual;
     Kokkos::deep_copy(P.hoop_factor, 1.0);
     Kokkos::deep_copy(P.art_stress, 0.0);
   }
@@ -736,6 +860,28 @@ void Simulation::load_state(const Checkpoint& c) {
   contact_power_ = optional("contact_power", 0.0);
   dt_ = optional("last_dt", 0.0);
   refresh_planar_mass();
+  if (fem_) {
+    if (!c.reals.count("fem_x")) throw std::invalid_argument("checkpoint has no element state; this deck ties elements ([fem])");
+    fem::FemMesh& m = fem_->mesh();
+    get_rows(real("fem_x"), "fem_x", m.x, m.n_nodes);
+    get_rows(real("fem_v"), "fem_v", m.v, m.n_nodes);
+    get_rows(real("fem_f_hold"), "fem_f_hold", m.f_hold, m.n_nodes);
+    get_rows(real("fem_stress"), "fem_stress", m.stress, m.n_elements);
+    get_rows(real("fem_strain_rate"), "fem_strain_rate", m.strain_rate, m.n_elements);
+    get_rows(real("fem_plastic_strain"), "fem_plastic_strain", m.plastic_strain, m.n_elements);
+    get_rows(real("fem_compaction"), "fem_compaction", m.compaction, m.n_elements);
+    get_rows(real("fem_hourglass_force"), "fem_hourglass_force", m.hourglass_force, m.n_elements);
+    get_rows(real("fem_internal_energy"), "fem_internal_energy", m.internal_energy, m.n_elements);
+    get_rows(real("fem_hourglass_energy"), "fem_hourglass_energy", m.hourglass_energy, m.n_elements);
+    fem_->set_damping(sph_.damping);
+    fem_->set_gravity(sph_.gravity);
+    fem_->restore_clock(scalar("fem_time"), static_cast<long>(scalar("fem_steps")), scalar("fem_last_dt"));
+    fem_->compute_forces(0.0);
+    sync_tie_kinematics();
+    sync_tie_stress();
+  } else if (c.reals.count("fem_x")) {
+    throw std::invalid_argument("checkpoint holds elements ([fem]); this deck has none");
+  }
   // pair quantities of the restored state; the stored accelerations are kept (they were
   // computed with the half-step velocities, which a full-step state cannot reproduce)
   rebuild_lists();
@@ -806,64 +952,115 @@ void Simulation::sync_tie_stress() {
                                      mesh.stress, P.n_real});
 }
 
-void Simulation::tie_fem(fem::FemModel& fem, fem::FemSide interface, const std::string& material) {
-  if (fem_) throw std::logic_error("tie_fem: already tied to an FEM block");
-  int mat = -1;
-  for (size_t k = 0; k < config_.materials.size(); ++k)
-    if (config_.materials[k].name == material) mat = static_cast<int>(k);
-  if (mat < 0) throw std::invalid_argument("tie_fem: material '" + material + "' is not in the deck");
+void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem_materials) {
+  if (fem_) throw std::logic_error("tie_fem: already tied to an FEM mesh");
+  if (fem_materials.size() != fem.materials().size())
+    throw std::invalid_argument("tie_fem: give one deck material per FEM material (" +
+                                std::to_string(fem.materials().size()) + ")");
+  std::vector<int> sph_mat;
+  for (const std::string& name : fem_materials) {
+    int mat = -1;
+    for (size_t k = 0; k < config_.materials.size(); ++k)
+      if (config_.materials[k].name == name) mat = static_cast<int>(k);
+    if (mat < 0) throw std::invalid_argument("tie_fem: material '" + name + "' is not in the deck");
+    sph_mat.push_back(mat);
+  }
   Particles& P = particles_;
-  const fem::FemBlock& blk = fem.block();
+  const fem::FemGrid& grid = fem.grid();
+  const int nr = grid.nr(), nz = grid.nz(), ne = fem.mesh().n_elements;
   const double dp = config_.sph.spacing;
   const double band = 2.0 * sph_.h + skin_ + dp;  // the kernel reach, with a margin for motion
   fem.compute_forces(0.0);  // element volumes at the current positions
   auto x0 = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fem.mesh().x0);
-  const double rho0 = materials_host_[mat].density;
-  const double size_r = (blk.r1 - blk.r0) / blk.nr, size_z = (blk.z1 - blk.z0) / blk.nz;
-  const int sub_r = std::max(1, static_cast<int>(std::lround(size_r / dp)));
-  const int sub_z = std::max(1, static_cast<int>(std::lround(size_z / dp)));
-  const double area = (size_r / sub_r) * (size_z / sub_z);
-  std::vector<int> elem, ea, eb;
-  std::vector<double> xi, eta, es, depth, face;
-  // outward normal of the FEM block at the interface
-  const double n_r = interface == fem::FemSide::Outer ? 1.0 : (interface == fem::FemSide::Inner ? -1.0 : 0.0);
-  const double n_z = interface == fem::FemSide::Top ? 1.0 : (interface == fem::FemSide::Bottom ? -1.0 : 0.0);
-  const bool z_face = interface == fem::FemSide::Top || interface == fem::FemSide::Bottom;
-  const double seg = z_face ? size_r / sub_r : size_z / sub_z;    // interface segment per tie particle
-  const double row = z_face ? size_z / sub_z : size_r / sub_r;    // depth of one row of tie particles
-  const double d = 1.0 / (z_face ? sub_r : sub_z);                 // segment as a fraction of the edge
-  for (int j = 0; j < blk.nz; ++j)
-    for (int i = 0; i < blk.nr; ++i)
-      for (int b = 0; b < sub_z; ++b)
-        for (int a = 0; a < sub_r; ++a) {
-          const double p = -1.0 + (2.0 * a + 1.0) / sub_r, q = -1.0 + (2.0 * b + 1.0) / sub_z;
-          const double r = blk.r0 + size_r * (i + 0.5 * (p + 1.0)), z = blk.z0 + size_z * (j + 0.5 * (q + 1.0));
-          // distance to the interface; the edge the particle projects onto, and where (s)
-          const double dist = interface == fem::FemSide::Top      ? blk.z1 - z
-                              : interface == fem::FemSide::Bottom ? z - blk.z0
-                              : interface == fem::FemSide::Inner  ? r - blk.r0
-                                                                  : blk.r1 - r;
-          if (dist >= band) continue;
-          const int edge = z_face ? i : j;
-          const int na = fem.side_node(interface, edge), nb = fem.side_node(interface, edge + 1);
-          const double s = 0.5 * ((z_face ? p : q) + 1.0);
-          // Weight of node b: the tie particle stands for a constant traction over its segment
-          // [s - d/2, s + d/2] of the edge, handed on with the consistent ring weights
-          // Int N_b 2 pi r ds / Int 2 pi r ds (Simpson: exact, r linear along the edge). On an
-          // edge z = const next to the axis this differs much from s: with one tie particle
-          // per element, s gave the axis node 50 % too much force.
-          const double s0 = s - 0.5 * d, s1 = s + 0.5 * d;
-          auto r_at = [&](double t) { return x0(na, 0) + t * (x0(nb, 0) - x0(na, 0)); };
-          const double num = s0 * r_at(s0) + 4 * s * r_at(s) + s1 * r_at(s1);
-          const double den = r_at(s0) + 4 * r_at(s) + r_at(s1);
-          elem.push_back(fem.element(i, j));
-          xi.push_back(p); eta.push_back(q);
-          ea.push_back(na); eb.push_back(nb); es.push_back(den > 0 ? num / den : s);
-          depth.push_back(dist);
-          // first row (its interface point is the segment's midpoint): ring area of the segment
-          const double rp = z_face ? r : (interface == fem::FemSide::Outer ? blk.r1 : blk.r0);
-          face.push_back(dist < row ? 2.0 * pi * rp * seg : 0.0);
+  auto conn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fem.mesh().conn);
+  auto xp = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), P.x);
+
+  // 1. The interface: element edges on the boundary of the mesh (no element across) with
+  //    particles just beyond them. Local edge k joins nodes k and k + 1 (counter-clockwise:
+  //    bottom, right, top, left); the cell across it is (i + di[k], j + dj[k]).
+  struct Edge { int a, b; double n_r, n_z; };
+  std::vector<Edge> iface;
+  std::vector<int> own_edge(ne, -1), own_k(ne, -1);  // the interface edge an element owns
+  const int di[4] = {0, 1, 0, -1}, dj[4] = {-1, 0, 1, 0};
+  auto active = [&](int i, int j) { return i >= 0 && j >= 0 && i < nr && j < nz && fem.element(i, j) >= 0; };
+  for (int e = 0; e < ne; ++e) {
+    const int i = fem.element_i(e), j = fem.element_j(e);
+    for (int k = 0; k < 4; ++k) {
+      if (active(i + di[k], j + dj[k])) continue;
+      const int a = conn(e, k), b = conn(e, (k + 1) % 4);
+      const double tr = x0(b, 0) - x0(a, 0), tz = x0(b, 1) - x0(a, 1), len = std::hypot(tr, tz);
+      const double n_r = tz / len, n_z = -tr / len;  // outward for counter-clockwise nodes
+      const double pr = 0.5 * (x0(a, 0) + x0(b, 0)) + 0.5 * dp * n_r, pz = 0.5 * (x0(a, 1) + x0(b, 1)) + 0.5 * dp * n_z;
+      bool beyond = false;
+      for (int q = 0; q < P.n_real && !beyond; ++q)
+        beyond = std::hypot(xp(q, 0) - pr, xp(q, 1) - pz) < 0.75 * dp;
+      if (!beyond) continue;
+      if (own_edge[e] >= 0)
+        throw std::invalid_argument("tie_fem: element " + std::to_string(e) + " has particles beyond two of its edges "
+                                    "(a one-element-wide strip or corner of the mesh): not supported");
+      own_edge[e] = static_cast<int>(iface.size());
+      own_k[e] = k;
+      iface.push_back({a, b, n_r, n_z});
+    }
+  }
+  if (iface.empty()) throw std::invalid_argument("tie_fem: no element edge has particles beyond it");
+  auto distance_to_interface = [&](double r, double z) {
+    double best = 1e300;
+    for (const Edge& E : iface) {
+      const double ar = x0(E.a, 0), az = x0(E.a, 1), br = x0(E.b, 0) - ar, bz = x0(E.b, 1) - az;
+      const double t = std::clamp(((r - ar) * br + (z - az) * bz) / (br * br + bz * bz), 0.0, 1.0);
+      best = std::min(best, std::hypot(r - ar - t * br, z - az - t * bz));
+    }
+    return best;
+  };
+
+  // 2. Tie particles: each element within the kernel reach of the interface is sampled at
+  //    about the particle spacing; the first row along an interface edge carries its traction.
+  std::vector<int> elem, ea, eb, tmat;
+  std::vector<double> xi, eta, es, depth, face, nrm_r, nrm_z, pmass;
+  for (int e = 0; e < ne; ++e) {
+    const int i = fem.element_i(e), j = fem.element_j(e);
+    const double size_r = grid.r[i + 1] - grid.r[i], size_z = grid.z[j + 1] - grid.z[j];
+    const int sub_r = std::max(1, static_cast<int>(std::lround(size_r / dp)));
+    const int sub_z = std::max(1, static_cast<int>(std::lround(size_z / dp)));
+    const double rho0 = fem.materials()[fem.element_material(e)].density;
+    for (int b = 0; b < sub_z; ++b)
+      for (int a = 0; a < sub_r; ++a) {
+        const double p = -1.0 + (2.0 * a + 1.0) / sub_r, q = -1.0 + (2.0 * b + 1.0) / sub_z;
+        const double r = grid.r[i] + size_r * 0.5 * (p + 1.0), z = grid.z[j] + size_z * 0.5 * (q + 1.0);
+        if (distance_to_interface(r, z) >= band) continue;
+        elem.push_back(e);
+        xi.push_back(p); eta.push_back(q);
+        tmat.push_back(sph_mat[fem.element_material(e)]);
+        pmass.push_back(rho0 * (size_r / sub_r) * (size_z / sub_z));
+        const int k = own_k[e];
+        // first row next to the element's interface edge k; s runs from node k to node k + 1
+        const bool first = k == 0 ? b == 0 : k == 1 ? a == sub_r - 1 : k == 2 ? b == sub_z - 1 : k == 3 ? a == 0 : false;
+        if (!first) {
+          ea.push_back(conn(e, 0)); eb.push_back(conn(e, 0)); es.push_back(0.0);
+          depth.push_back(0.0); face.push_back(0.0); nrm_r.push_back(0.0); nrm_z.push_back(0.0);
+          continue;
         }
+        const Edge& E = iface[own_edge[e]];
+        const double s = k == 0 ? 0.5 * (p + 1) : k == 1 ? 0.5 * (q + 1) : k == 2 ? 0.5 * (1 - p) : 0.5 * (1 - q);
+        const double d = 1.0 / (k == 0 || k == 2 ? sub_r : sub_z);  // segment as a fraction of the edge
+        const double len = std::hypot(x0(E.b, 0) - x0(E.a, 0), x0(E.b, 1) - x0(E.a, 1));
+        // Weight of node b: the tie particle stands for a constant traction over its segment
+        // [s - d/2, s + d/2] of the edge, handed on with the consistent ring weights
+        // Int N_b 2 pi r ds / Int 2 pi r ds (Simpson: exact, r linear along the edge). On an
+        // edge z = const next to the axis this differs much from s: with one tie particle
+        // per element, s gave the axis node 50 % too much force.
+        const double s0 = s - 0.5 * d, s1 = s + 0.5 * d;
+        auto r_at = [&](double t) { return x0(E.a, 0) + t * (x0(E.b, 0) - x0(E.a, 0)); };
+        const double num = s0 * r_at(s0) + 4 * s * r_at(s) + s1 * r_at(s1);
+        const double den = r_at(s0) + 4 * r_at(s) + r_at(s1);
+        ea.push_back(E.a); eb.push_back(E.b); es.push_back(den > 0 ? num / den : s);
+        const double dist = (x0(E.a, 0) - r) * E.n_r + (x0(E.a, 1) - z) * E.n_z;  // to the edge's line
+        depth.push_back(dist);
+        face.push_back(2.0 * pi * (r + dist * E.n_r) * len * d);  // ring area of the segment
+        nrm_r.push_back(E.n_r); nrm_z.push_back(E.n_z);
+      }
+  }
   const int n = static_cast<int>(elem.size());
   auto upload = [](const char* label, const auto& host) {  // host vector -> device view
     View1<typename std::decay_t<decltype(host)>::value_type> v(std::string(label), host.size());
@@ -872,22 +1069,26 @@ void Simulation::tie_fem(fem::FemModel& fem, fem::FemSide interface, const std::
     Kokkos::deep_copy(v, h);
     return v;
   };
+  auto upload2 = [](const char* label, const std::vector<double>& c0, const std::vector<double>& c1) {
+    ViewN<double, 2> v(std::string(label), c0.size());
+    auto h = Kokkos::create_mirror_view(v);
+    for (size_t k = 0; k < c0.size(); ++k) { h(k, 0) = c0[k]; h(k, 1) = c1[k]; }
+    Kokkos::deep_copy(v, h);
+    return v;
+  };
   tie_.count = n;
-  tie_.material = mat;
-  tie_.normal_r = n_r;
-  tie_.normal_z = n_z;
+  tie_.material = upload("tamp::tie::material", tmat);
   tie_.element = upload("tamp::tie::element", elem);
   tie_.edge_a = upload("tamp::tie::edge_a", ea);
   tie_.edge_b = upload("tamp::tie::edge_b", eb);
   tie_.edge_s = upload("tamp::tie::edge_s", es);
   tie_.depth = upload("tamp::tie::depth", depth);
   tie_.face_area = upload("tamp::tie::face_area", face);
-  tie_.planar_mass = upload("tamp::tie::planar_mass", std::vector<double>(n, rho0 * area));
-  tie_.parent = ViewN<double, 2>("tamp::tie::parent", n);
-  auto h_p = Kokkos::create_mirror_view(tie_.parent);
-  for (int k = 0; k < n; ++k) { h_p(k, 0) = xi[k]; h_p(k, 1) = eta[k]; }
-  Kokkos::deep_copy(tie_.parent, h_p);
+  tie_.planar_mass = upload("tamp::tie::planar_mass", pmass);
+  tie_.normal = upload2("tamp::tie::normal", nrm_r, nrm_z);
+  tie_.parent = upload2("tamp::tie::parent", xi, eta);
   tie_.force = ViewN<double, 2>("tamp::tie::force", n);
+  tie_edges_ = static_cast<int>(iface.size());
 
   fem_ = &fem;
   P.reserve(P.n_real + n + (P.n_total - P.n_real) + 64);

@@ -3,6 +3,7 @@
 // and models.
 #pragma once
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 #include "core/Config.hpp"
@@ -99,7 +100,10 @@ class Simulation {
   double contact_energy() const { return contact_energy_; }
 
   // Mass-proportional damping (1/s) from now on (the deck's value at the start).
-  void set_damping(double d) { sph_.damping = d; }
+  void set_damping(double d) {
+    sph_.damping = d;
+    if (fem_) fem_->set_damping(d);
+  }
   double damping() const { return sph_.damping; }
 
   // Appends particles at rest with zero stress, each of ring mass rho 2 pi r dp^2, and
@@ -131,12 +135,16 @@ class Simulation {
   // initial stress by hand.
   void hold_boundary_stress();
 
-  // Ties the particles to an FEM block whose side `interface` faces them (docs/coupling.md):
-  // from now on step() advances both in one time loop with the smaller stable step. The
-  // block's material must be `material` (a name in the deck). The FEM model must outlive
-  // the tie. Not yet supported with a tie: backfill (add_particles) and checkpoints.
-  void tie_fem(fem::FemModel& fem, fem::FemSide interface, const std::string& material);
+  // Ties the particles to an FEM mesh along every element edge on the mesh's boundary with
+  // particles just beyond it (docs/coupling.md): from now on step() advances both in one
+  // time loop with the smaller stable step. fem_materials[k] names the deck material of the
+  // mesh's material k (the tie particles take it). The FEM model must outlive the tie.
+  void tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem_materials);
   int tie_particle_count() const { return tie_.count; }
+  int tie_edge_count() const { return tie_edges_; }
+  // The tied FEM mesh (the deck's [fem] one or one given to tie_fem), or nullptr.
+  fem::FemModel* fem() { return fem_; }
+  const fem::FemModel* fem() const { return fem_; }
 
   // Per-part wall times of the steps (perf); off by default (it adds fences).
   void set_profiling(bool on) { profiling_ = on; profile_ = StepProfile{}; }
@@ -173,8 +181,12 @@ class Simulation {
   StepProfile profile_;
   double profile_clock_ = 0;
   void profile_mark(double StepProfile::*part);  // adds the time since the last mark to `part`
-  fem::FemModel* fem_ = nullptr;  // tied FEM block (not owned), or none
+  fem::FemModel* fem_ = nullptr;  // tied FEM mesh, or none
+  std::unique_ptr<fem::FemModel> own_fem_;  // the deck's [fem] mesh (fem_ points to it)
+  void build_fem();
+  double spring_distance(const WallSpec& w, int axis, int side) const;
   TieParticles tie_;
+  int tie_edges_ = 0;
   void sync_tie_kinematics();
   void sync_tie_stress();
   RigidBody body_;

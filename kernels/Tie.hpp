@@ -27,11 +27,11 @@ struct TieParticles {
   View1<int> edge_a, edge_b;     // the interface edge it hands its force to
   View1<double> edge_s;          // share of its force for node b (1 - edge_s for node a)
   View1<double> planar_mass;     // rho0 times its share of the element's (r, z) area, kg/m
-  double normal_r = 0, normal_z = 0;  // outward normal of the FEM at the interface
-  View1<double> depth;           // reference distance to the interface, m
+  ViewN<double, 2> normal;       // first row: outward normal of the FEM at its interface edge
+  View1<double> depth;           // first row: reference distance to the interface edge, m
   View1<double> face_area;       // first row: ring area of its interface segment, m2; else 0
   ViewN<double, 2> force;        // interface force handed to the FEM, N (per ring)
-  int material = 0;              // index in the SPH material table (the FEM's material)
+  View1<int> material;           // index in the SPH material table (its element's material)
 };
 
 // Bilinear shape functions, nodes counter-clockwise from (xi, eta) = (-1, -1).
@@ -51,7 +51,8 @@ struct SyncTieKinematics {
   View1<int> element;
   ViewN<double, 2> parent;
   View1<double> tie_planar_mass;
-  int tie_material, n_real;
+  View1<int> tie_material;
+  int n_real;
   // FEM
   ViewN<double, 2> node_x, node_v;
   Kokkos::View<int* [4], MemSpace> conn;
@@ -72,7 +73,7 @@ struct SyncTieKinematics {
     rho(i) = elem_mass(e) / elem_volume(e);
     planar_mass(i) = tie_planar_mass(k);
     mass(i) = 2.0 * pi * (xr > r_floor ? xr : r_floor) * tie_planar_mass(k);
-    material(i) = tie_material;
+    material(i) = tie_material(k);
     flags(i) = 0;
   }
 };
@@ -106,7 +107,7 @@ struct TieTraction {
   View1<double> planar_mass, rho;
   ViewN<double, 4> sigma;
   View1<int> offsets, neighbours;
-  double nr, nz;  // outward normal of the FEM at the interface
+  ViewN<double, 2> normal;  // outward normal of the FEM at the interface
   View1<double> depth, face_area;
   ViewN<double, 2> force;
   double h;
@@ -118,6 +119,7 @@ struct TieTraction {
       return;
     }
     const int b = n_real + k;
+    const double nr = normal(k, 0), nz = normal(k, 1);
     const double pr = x(b, 0) + depth(k) * nr, pz = x(b, 1) + depth(k) * nz;
     const Wendland2D W(h);
     double A00 = 0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
         fem::FemModel model(make_material(cfg.materials[0]), fb, fo);
         model.set_side(fem::FemSide::Outer, fem::FemBc::Roller);
         model.set_side(fem::FemSide::Bottom, fem::FemBc::Fixed);
-        sim.tie_fem(model, fem::FemSide::Top, cfg.materials[0].name);
+        sim.tie_fem(model, {cfg.materials[0].name});
         for (int k = 0; k < 5; ++k) sim.step();  // warm-up
         sim.set_profiling(true);
         for (int k = 0; k < steps; ++k) sim.step();

@@ -31,7 +31,7 @@ TEST_CASE("Tie: a compression pulse crosses from the particles into the elements
   fem::FemModel model(make_material(cfg.materials[0]), b);
   model.set_side(fem::FemSide::Outer, fem::FemBc::Roller);
   model.set_non_reflecting(fem::FemSide::Bottom, zi);
-  sim.tie_fem(model, fem::FemSide::Top, cfg.materials[0].name);
+  sim.tie_fem(model, {cfg.materials[0].name});
   const double c = sim.materials()[0].wave_speed();
   const Box top{0, 1, L - dp, 1};
   sim.prescribe_velocity(top, 0.0, v0);
@@ -112,7 +112,7 @@ TEST_CASE("Tie: geostatic column of particles on elements, no artefact at the in
   fem::FemModel model(m, b, fo);
   model.set_side(fem::FemSide::Outer, fem::FemBc::Roller);
   model.set_side(fem::FemSide::Bottom, fem::FemBc::Fixed);
-  sim.tie_fem(model, fem::FemSide::Top, cfg.materials[0].name);
+  sim.tie_fem(model, {cfg.materials[0].name});
   sim.advance_to(25 * 4 * L / c);
 
   const double gamma = m.density * cfg.gravity, k0 = cfg.materials[0].poisson_ratio / (1 - cfg.materials[0].poisson_ratio);
@@ -211,7 +211,7 @@ TEST_CASE("Tie: rigid smooth punch on an elastic half-space, punch area in parti
   fem::FemModel model(m, b, fo);
   model.set_non_reflecting(fem::FemSide::Bottom, H);
   model.set_non_reflecting(fem::FemSide::Outer, R);
-  sim.tie_fem(model, fem::FemSide::Inner, cfg.materials[0].name);
+  sim.tie_fem(model, {cfg.materials[0].name});
 
   const ParticleSnapshot s0 = sim.snapshot();
   const double v = 0.01;  // m/s

@@ -293,6 +293,25 @@ void write_snapshot_h5(const std::string& path, const ParticleSnapshot& s) {
       xyz[3 * i + 2] = 0.0;
     }
     write_dataset(group, "coordinates", {n, 3}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, xyz.data(), "m", path);
+    const ElementSnapshot& e = s.elements;
+    if (e.size() == 0) return;
+    const hsize_t ne = e.size(), nn = e.nodes();
+    const Handle eg = create_group(file, "/elements", path);
+    write_dataset(eg, "node_r", {nn}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, e.node_r.data(), "m", path);
+    write_dataset(eg, "node_z", {nn}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, e.node_z.data(), "m", path);
+    std::vector<double> nxyz(3 * nn);
+    for (std::size_t i = 0; i < nn; ++i) {
+      nxyz[3 * i + 0] = e.node_r[i];
+      nxyz[3 * i + 1] = e.node_z[i];
+      nxyz[3 * i + 2] = 0.0;
+    }
+    write_dataset(eg, "coordinates", {nn, 3}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, nxyz.data(), "m", path);
+    write_dataset(eg, "connectivity", {ne, 4}, H5T_STD_I32LE, H5T_NATIVE_INT, e.connectivity.data(), "1", path);
+    for (const auto& [name, v] : {std::pair<const char*, const std::vector<double>*>{"s_rr", &e.s_rr},
+                                  {"s_zz", &e.s_zz}, {"s_tt", &e.s_tt}, {"s_rz", &e.s_rz},
+                                  {"plastic_strain", &e.plastic_strain}})
+      write_dataset(eg, name, {ne}, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, v->data(), name[0] == 's' ? "Pa" : "1", path);
+    write_dataset(eg, "material", {ne}, H5T_STD_I32LE, H5T_NATIVE_INT, e.material.data(), "1", path);
   });
 }
 
@@ -307,6 +326,18 @@ ParticleSnapshot read_snapshot_h5(const std::string& path) {
   s.step = static_cast<long>(step);
   for (const auto& f : kDoubleFields) read_vector(group, f.name, H5T_NATIVE_DOUBLE, s.*f.member, path);
   read_vector(group, kMaterialField, H5T_NATIVE_INT, s.material, path);
+  if (H5Lexists(file.get(), "/elements", H5P_DEFAULT) > 0) {
+    const Handle eg = open_group(file, "/elements", path);
+    ElementSnapshot& e = s.elements;
+    read_vector(eg, "node_r", H5T_NATIVE_DOUBLE, e.node_r, path);
+    read_vector(eg, "node_z", H5T_NATIVE_DOUBLE, e.node_z, path);
+    read_vector(eg, "s_rr", H5T_NATIVE_DOUBLE, e.s_rr, path);
+    read_vector(eg, "s_zz", H5T_NATIVE_DOUBLE, e.s_zz, path);
+    read_vector(eg, "s_tt", H5T_NATIVE_DOUBLE, e.s_tt, path);
+    read_vector(eg, "s_rz", H5T_NATIVE_DOUBLE, e.s_rz, path);
+    read_vector(eg, "plastic_strain", H5T_NATIVE_DOUBLE, e.plastic_strain, path);
+    read_vector(eg, "material", H5T_NATIVE_INT, e.material, path);
+  }
   try {
     check_sizes(s, path);
   } catch (const std::invalid_argument& e) {
@@ -327,7 +358,7 @@ void XdmfSeries::add(const std::string& h5_file_relative, const ParticleSnapshot
     file = p.lexically_normal().lexically_relative(dir.lexically_normal()).generic_string();
     if (file.empty()) file = h5_file_relative;  // different roots: keep it absolute
   }
-  const Entry e{file, s.step, s.time, s.size()};
+  const Entry e{file, s.step, s.time, s.size(), s.elements.nodes(), s.elements.size()};
   for (auto& old : entries_)
     if (old.file == file) {
       old = e;
@@ -346,8 +377,14 @@ void XdmfSeries::write() const {
   for (const auto& e : entries_) {
     const std::string file = xml_escape(e.file);
     const std::string n = std::to_string(e.n);
-    o << "      <Grid Name=\"step_" << e.step << "\" GridType=\"Uniform\">\n"
-      << "        <Time Value=\"" << fmt_num(e.time) << "\"/>\n"
+    // with elements: a spatial collection of the particles and the element mesh per time
+    if (e.elements > 0)
+      o << "      <Grid Name=\"step_" << e.step << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
+        << "        <Time Value=\"" << fmt_num(e.time) << "\"/>\n";
+    o << "      <Grid Name=\"" << (e.elements > 0 ? "particles" : "step_" + std::to_string(e.step))
+      << "\" GridType=\"Uniform\">\n";
+    if (e.elements == 0) o << "        <Time Value=\"" << fmt_num(e.time) << "\"/>\n";
+    o << ""
       << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
       << "\" NodesPerElement=\"1\"/>\n"
       << "        <Geometry GeometryType=\"XYZ\">\n"
@@ -364,6 +401,27 @@ void XdmfSeries::write() const {
       if (std::strcmp(f.name, "r") != 0 && std::strcmp(f.name, "z") != 0) attribute(f.name, "Float", 8);
     attribute(kMaterialField, "Int", 4);
     o << "      </Grid>\n";
+    if (e.elements == 0) continue;
+    const std::string ne = std::to_string(e.elements), nn = std::to_string(e.nodes);
+    o << "      <Grid Name=\"elements\" GridType=\"Uniform\">\n"
+      << "        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << ne << "\">\n"
+      << "          <DataItem Dimensions=\"" << ne << " 4\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">"
+      << file << ":/elements/connectivity</DataItem>\n"
+      << "        </Topology>\n"
+      << "        <Geometry GeometryType=\"XYZ\">\n"
+      << "          <DataItem Dimensions=\"" << nn << " 3\" NumberType=\"Float\" Precision=\"8\" "
+      << "Format=\"HDF\">" << file << ":/elements/coordinates</DataItem>\n"
+      << "        </Geometry>\n";
+    for (const char* name : {"s_rr", "s_zz", "s_tt", "s_rz", "plastic_strain", "material"}) {
+      const bool is_int = std::strcmp(name, "material") == 0;
+      o << "        <Attribute Name=\"" << name << "\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
+        << "          <DataItem Dimensions=\"" << ne << "\" NumberType=\"" << (is_int ? "Int" : "Float")
+        << "\" Precision=\"" << (is_int ? 4 : 8) << "\" Format=\"HDF\">" << file << ":/elements/" << name
+        << "</DataItem>\n"
+        << "        </Attribute>\n";
+    }
+    o << "      </Grid>\n"
+      << "      </Grid>\n";
   }
   o << "    </Grid>\n"
     << "  </Domain>\n"

@@ -7,6 +7,10 @@
 //                              r, z, v_r, v_z, density, s_rr, s_zz, s_tt, s_rz, plastic_strain,
 //                              internal_energy, mass (float64), material (int32)
 //   /particles/coordinates     n x 3 float64 (r, z, 0), the XDMF geometry
+//   /elements                  only with tied finite elements ([fem]): node_r, node_z,
+//                              coordinates (nodes x 3), connectivity (elements x 4, int32,
+//                              counter-clockwise), and per element s_rr, s_zz, s_tt, s_rz,
+//                              plastic_strain (float64), material (int32)
 //
 // Errors (file cannot be created/opened, dataset missing, inconsistent sizes) throw
 // std::runtime_error naming the file (std::invalid_argument for bad arguments).
@@ -17,6 +21,16 @@
 #include <vector>
 
 namespace tamp {
+
+struct ElementSnapshot {              // host copies of the tied FEM mesh (empty without one)
+  std::vector<double> node_r, node_z; // m, current node positions
+  std::vector<int> connectivity;      // 4 node ids per element, counter-clockwise
+  std::vector<double> s_rr, s_zz, s_tt, s_rz;  // Pa, tension positive
+  std::vector<double> plastic_strain; // -
+  std::vector<int> material;          // index into Config::materials
+  std::size_t size() const { return s_rr.size(); }
+  std::size_t nodes() const { return node_r.size(); }
+};
 
 struct ParticleSnapshot {             // host copies of the fields of the real particles
   long step = 0;
@@ -29,6 +43,7 @@ struct ParticleSnapshot {             // host copies of the fields of the real p
   std::vector<double> internal_energy;// specific, J/kg
   std::vector<double> mass;           // kg
   std::vector<int> material;          // index into Config::materials
+  ElementSnapshot elements;           // the tied elements, if any
 
   std::size_t size() const { return r.size(); }
   void resize(std::size_t n);         // every field to n entries
@@ -60,6 +75,7 @@ class XdmfSeries {
     long step;
     double time;
     std::size_t n;
+    std::size_t nodes, elements;  // tied FEM mesh, 0 without one
   };
   std::string xdmf_path_;
   std::vector<Entry> entries_;

@@ -928,6 +928,24 @@ ParticleSnapshot Simulation::snapshot() const {
   take([&](int i) { return hu(i); }, s.internal_energy);
   take([&](int i) { return hm(i); }, s.mass);
   take([&](int i) { return hmat(i); }, s.material);
+  if (fem_) {
+    const fem::FemMesh& m = fem_->mesh();
+    auto nx = Kokkos::create_mirror_view_and_copy(HostSpace(), m.x);
+    auto conn = Kokkos::create_mirror_view_and_copy(HostSpace(), m.conn);
+    auto st = Kokkos::create_mirror_view_and_copy(HostSpace(), m.stress);
+    auto ep = Kokkos::create_mirror_view_and_copy(HostSpace(), m.plastic_strain);
+    ElementSnapshot& e = s.elements;
+    for (int i = 0; i < m.n_nodes; ++i) {
+      e.node_r.push_back(nx(i, 0));
+      e.node_z.push_back(nx(i, 1));
+    }
+    for (int k = 0; k < m.n_elements; ++k) {
+      for (int q = 0; q < 4; ++q) e.connectivity.push_back(conn(k, q));
+      e.s_rr.push_back(st(k, 0)); e.s_zz.push_back(st(k, 1)); e.s_tt.push_back(st(k, 2)); e.s_rz.push_back(st(k, 3));
+      e.plastic_strain.push_back(ep(k));
+      e.material.push_back(fem_deck_material_[fem_->element_material(k)]);
+    }
+  }
   return s;
 }
 
@@ -965,6 +983,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
     if (mat < 0) throw std::invalid_argument("tie_fem: material '" + name + "' is not in the deck");
     sph_mat.push_back(mat);
   }
+  fem_deck_material_ = sph_mat;
   Particles& P = particles_;
   const fem::FemGrid& grid = fem.grid();
   const int nr = grid.nr(), nz = grid.nz(), ne = fem.mesh().n_elements;

@@ -187,6 +187,7 @@ class Simulation {
   double spring_distance(const WallSpec& w, int axis, int side) const;
   TieParticles tie_;
   int tie_edges_ = 0;
+  std::vector<int> fem_deck_material_;  // FEM material -> deck material index
   void sync_tie_kinematics();
   void sync_tie_stress();
   RigidBody body_;

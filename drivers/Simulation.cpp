@@ -776,6 +776,7 @@ Checkpoint Simulation::save_state() {
     put_rows(m.x, m.n_nodes, c.reals["fem_x"]);
     put_rows(m.v, m.n_nodes, c.reals["fem_v"]);
     put_rows(m.f_hold, m.n_nodes, c.reals["fem_f_hold"]);
+    put_rows(m.f_tie, m.n_nodes, c.reals["fem_f_tie"]);  // of the stored accelerations' state
     put_rows(m.stress, m.n_elements, c.reals["fem_stress"]);
     put_rows(m.strain_rate, m.n_elements, c.reals["fem_strain_rate"]);
     put_rows(m.plastic_strain, m.n_elements, c.reals["fem_plastic_strain"]);
@@ -866,6 +867,7 @@ void Simulation::load_state(const Checkpoint& c) {
     get_rows(real("fem_x"), "fem_x", m.x, m.n_nodes);
     get_rows(real("fem_v"), "fem_v", m.v, m.n_nodes);
     get_rows(real("fem_f_hold"), "fem_f_hold", m.f_hold, m.n_nodes);
+    get_rows(real("fem_f_tie"), "fem_f_tie", m.f_tie, m.n_nodes);
     get_rows(real("fem_stress"), "fem_stress", m.stress, m.n_elements);
     get_rows(real("fem_strain_rate"), "fem_strain_rate", m.strain_rate, m.n_elements);
     get_rows(real("fem_plastic_strain"), "fem_plastic_strain", m.plastic_strain, m.n_elements);

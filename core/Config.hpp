@@ -82,7 +82,8 @@ struct WallSpec {
 // deck's walls act on the element nodes (and on particles where the zone reaches them).
 struct FemSpec {
   bool enabled = false;
-  double element_size = 0.0;      // m, largest element edge; 0 = the particle spacing
+  double element_size = 0.0;      // m, element edge next to the SPH zone; 0 = the particle spacing
+  double grading = 1.0;           // growth of the element edge per element away from the zone (1 = uniform)
   double zone_r_min = 0, zone_r_max = 0;  // m, the SPH zone (particles inside, elements outside)
   double zone_z_min = 0, zone_z_max = 0;  // m
   double hourglass_coefficient = 0.1;     // stiffness-form hourglass control (docs/fem.md)

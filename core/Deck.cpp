@@ -616,10 +616,11 @@ void read_fem(const Table& top, Config& cfg) {
   FemSpec& f = cfg.fem;
   const toml::table* tt = sub_table(top, "fem");
   if (!tt) return;
-  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "sph_zone", "hourglass_coefficient", "cfl"});
+  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "grading", "sph_zone", "hourglass_coefficient", "cfl"});
   f.enabled = boolean(t, "enabled", true);
   const double dp = cfg.sph.spacing;
   f.element_size = number(t, "element_size", dp, ge(dp), "m (>= sph.spacing: finer elements than particles are not tied)");
+  f.grading = number(t, "grading", f.grading, ge_le(1, 1.5), "(element edge growth per element away from the SPH zone)");
   f.hourglass_coefficient = number(t, "hourglass_coefficient", f.hourglass_coefficient, ge_le(0, 1), "");
   f.cfl = number(t, "cfl", f.cfl, gt_le(0, 1), "");
   const std::string zone_shape = "an inline table { r = [r_min, r_max], z = [z_min, z_max] } (m) inside the blocks";
@@ -848,6 +849,7 @@ std::string to_toml(const Config& c) {
     o << "\n[fem]\n";
     o << "enabled = " << (c.fem.enabled ? "true" : "false") << "\n";
     o << "element_size = " << fmt_float(c.fem.element_size) << "  # m\n";
+    o << "grading = " << fmt_float(c.fem.grading) << "\n";
     o << "sph_zone = { r = [" << fmt_float(c.fem.zone_r_min) << ", " << fmt_float(c.fem.zone_r_max) << "], z = ["
       << fmt_float(c.fem.zone_z_min) << ", " << fmt_float(c.fem.zone_z_max) << "] }  # m\n";
     o << "hourglass_coefficient = " << fmt_float(c.fem.hourglass_coefficient) << "\n";

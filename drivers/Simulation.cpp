@@ -98,15 +98,32 @@ double Simulation::spring_distance(const WallSpec& w, int axis, int side) const 
 // block. The deck's walls act on the sides of the mesh; the mesh is tied to the particles.
 void Simulation::build_fem() {
   const FemSpec& f = config_.fem;
-  auto lines = [&](std::vector<double> cuts) {
+  // Node lines through the cuts. Uniform (grading 1): each interval in equal elements no
+  // longer than element_size. Graded: marching from the end nearer the zone with the edge
+  // h = element_size + (grading - 1) d at distance d from the zone (a geometric series in
+  // the element count); a remainder below half an element joins the last one.
+  auto lines = [&](std::vector<double> cuts, auto distance) {
     std::sort(cuts.begin(), cuts.end());
     std::vector<double> out{cuts.front()};
     for (size_t k = 1; k < cuts.size(); ++k) {
-      const double len = cuts[k] - out.back();
+      const double lo = out.back(), hi = cuts[k], len = hi - lo;
       if (len < 1e-9) continue;
-      const int n = std::max(1, static_cast<int>(std::ceil(len / f.element_size - 1e-6)));
-      const double a = out.back();
-      for (int q = 1; q <= n; ++q) out.push_back(q == n ? cuts[k] : a + len * q / n);
+      if (f.grading <= 1.0) {
+        const int n = std::max(1, static_cast<int>(std::ceil(len / f.element_size - 1e-6)));
+        for (int q = 1; q <= n; ++q) out.push_back(q == n ? hi : lo + len * q / n);
+        continue;
+      }
+      const bool from_lo = distance(lo) <= distance(hi);
+      std::vector<double> piece{from_lo ? lo : hi};
+      const double end = from_lo ? hi : lo, sign = from_lo ? 1.0 : -1.0;
+      while (true) {
+        const double h = f.element_size + (f.grading - 1.0) * distance(piece.back());
+        const double next = piece.back() + sign * h;
+        if (sign * (end - next) < 0.5 * h) { piece.push_back(end); break; }
+        piece.push_back(next);
+      }
+      if (!from_lo) std::reverse(piece.begin(), piece.end());
+      out.insert(out.end(), piece.begin() + 1, piece.end());
     }
     return out;
   };
@@ -116,8 +133,8 @@ void Simulation::build_fem() {
     zc.push_back(b.z_min); zc.push_back(b.z_max);
   }
   fem::FemGrid grid;
-  grid.r = lines(rc);
-  grid.z = lines(zc);
+  grid.r = lines(rc, [&](double r) { return std::max({0.0, f.zone_r_min - r, r - f.zone_r_max}); });
+  grid.z = lines(zc, [&](double z) { return std::max({0.0, f.zone_z_min - z, z - f.zone_z_max}); });
   const int nr = grid.nr(), nz = grid.nz();
   grid.material.assign(static_cast<size_t>(nr) * nz, -1);
   std::vector<int> deck_of;  // FEM material -> deck material

@@ -638,6 +638,17 @@ void read_fem(const Table& top, Config& cfg) {
   f.zone_r_min = (*r)[0]; f.zone_r_max = (*r)[1];
   f.zone_z_min = (*zz)[0]; f.zone_z_max = (*zz)[1];
   if (!f.enabled) return;
+  // The first particle column above a tie at the axis needs its 1/r regularised beyond r = dp/2
+  // (docs/coupling.md: with r_min = 0.25 h it grows unstable at about 20 1/s): default 0.5 here.
+  const toml::node* sph_node = top.find("sph");
+  const toml::node* given = sph_node && sph_node->is_table() ? sph_node->as_table()->get("axis_radius_factor") : nullptr;
+  if (!given) {
+    cfg.sph.axis_radius_factor = std::max(cfg.sph.axis_radius_factor, 0.5);
+  } else if (cfg.sph.axis_radius_factor < 0.5) {
+    top.rep().out_of_range("sph.axis_radius_factor", *given,
+                           "0.5 <= axis_radius_factor <= 1 with [fem] (the particles next to a tie at the axis are "
+                           "unstable below 0.5, docs/coupling.md), or [fem] enabled = false");
+  }
   if (f.zone_r_min != 0.0)
     z.rep().out_of_range(z.path("r"), *z.find("r"), "r = [0, r_max]: the zone is around the axis (a ring-shaped zone is not supported)");
   // the zone lies on the particle grid of the blocks it cuts

@@ -977,7 +977,7 @@ void Simulation::sync_tie_kinematics() {
   const fem::FemMesh& mesh = fem_->mesh();
   Kokkos::parallel_for("tamp::tie::kinematics", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                        SyncTieKinematics{P.x, P.v, P.mass, P.planar_mass, P.rho, P.material, P.flags, tie_.element,
-                                         tie_.parent, tie_.planar_mass, tie_.material, P.n_real, mesh.x, mesh.v,
+                                         tie_.parent, tie_.follow, tie_.planar_mass, tie_.material, P.n_real, mesh.x, mesh.x0, mesh.v,
                                          mesh.conn, mesh.elem_mass, mesh.volume, 1e-3 * config_.sph.spacing});
 }
 
@@ -1055,7 +1055,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
   // 2. Tie particles: each element within the kernel reach of the interface is sampled at
   //    about the particle spacing; the first row along an interface edge carries its traction.
   std::vector<int> elem, ea, eb, tmat;
-  std::vector<double> xi, eta, es, depth, face, nrm_r, nrm_z, pmass;
+  std::vector<double> xi, eta, es, depth, face, nrm_r, nrm_z, pmass, fxi, feta;
   for (int e = 0; e < ne; ++e) {
     const int i = fem.element_i(e), j = fem.element_j(e);
     const double size_r = grid.r[i + 1] - grid.r[i], size_z = grid.z[j + 1] - grid.z[j];
@@ -1069,6 +1069,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
         if (distance_to_interface(r, z) >= band) continue;
         elem.push_back(e);
         xi.push_back(p); eta.push_back(q);
+        fxi.push_back(p); feta.push_back(q);
         tmat.push_back(sph_mat[fem.element_material(e)]);
         pmass.push_back(rho0 * (size_r / sub_r) * (size_z / sub_z));
         const int k = own_k[e];
@@ -1080,6 +1081,13 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
           continue;
         }
         const Edge& E = iface[own_edge[e]];
+        // The first row moves with its interface edge (the nodes that receive its traction):
+        // following the element's interior point instead left the edge nodes' motion half
+        // unseen, and a tie at the axis grew unstable at ~50 1/s (docs/coupling.md).
+        if (k == 0) feta.back() = -1.0;
+        else if (k == 1) fxi.back() = 1.0;
+        else if (k == 2) feta.back() = 1.0;
+        else fxi.back() = -1.0;
         const double s = k == 0 ? 0.5 * (p + 1) : k == 1 ? 0.5 * (q + 1) : k == 2 ? 0.5 * (1 - p) : 0.5 * (1 - q);
         const double d = 1.0 / (k == 0 || k == 2 ? sub_r : sub_z);  // segment as a fraction of the edge
         const double len = std::hypot(x0(E.b, 0) - x0(E.a, 0), x0(E.b, 1) - x0(E.a, 1));
@@ -1125,6 +1133,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
   tie_.planar_mass = upload("tamp::tie::planar_mass", pmass);
   tie_.normal = upload2("tamp::tie::normal", nrm_r, nrm_z);
   tie_.parent = upload2("tamp::tie::parent", xi, eta);
+  tie_.follow = upload2("tamp::tie::follow", fxi, feta);
   tie_.force = ViewN<double, 2>("tamp::tie::force", n);
   tie_edges_ = static_cast<int>(iface.size());
 

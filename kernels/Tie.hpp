@@ -2,7 +2,9 @@
 //
 // The FEM elements next to the interface are sampled at the SPH spacing by tie particles,
 // fixed in the element's parent coordinates (xi, eta). Every step they take the element's
-// motion (bilinear interpolation of the nodes), density and stress, and stand in the SPH
+// motion (bilinear interpolation of the nodes; the first row next to the interface takes the
+// motion of its projection on the interface edge, whose nodes receive its traction), density
+// and stress, and stand in the SPH
 // sums as neighbours of the real particles: the particles next to the interface see a full
 // kernel of material on the FEM side, as they would inside one body. In return the FEM
 // boundary receives the interface traction t = sigma(p) . n at the interface points p
@@ -24,6 +26,8 @@ struct TieParticles {
   int count = 0;
   View1<int> element;            // FEM element holding the tie particle
   ViewN<double, 2> parent;       // (xi, eta) in [-1, 1]^2
+  ViewN<double, 2> follow;       // (xi, eta) whose motion it takes: its own, or (first row)
+                                 // its projection on the interface edge
   View1<int> edge_a, edge_b;     // the interface edge it hands its force to
   View1<double> edge_s;          // share of its force for node b (1 - edge_s for node a)
   View1<double> planar_mass;     // rho0 times its share of the element's (r, z) area, kg/m
@@ -49,24 +53,27 @@ struct SyncTieKinematics {
   View1<int> material, flags;
   // tie layout
   View1<int> element;
-  ViewN<double, 2> parent;
+  ViewN<double, 2> parent, follow;
   View1<double> tie_planar_mass;
   View1<int> tie_material;
   int n_real;
   // FEM
-  ViewN<double, 2> node_x, node_v;
+  ViewN<double, 2> node_x, node_x0, node_v;
   Kokkos::View<int* [4], MemSpace> conn;
   View1<double> elem_mass, elem_volume;
   double r_floor;
   KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
     const int i = n_real + k, e = element(k);
-    double N[4];
+    double N[4], F[4];
     bilinear(parent(k, 0), parent(k, 1), N);
+    bilinear(follow(k, 0), follow(k, 1), F);
     double xr = 0, xz = 0, vr = 0, vz = 0;
     for (int q = 0; q < 4; ++q) {
       const int n = conn(e, q);
-      xr += N[q] * node_x(n, 0); xz += N[q] * node_x(n, 1);
-      vr += N[q] * node_v(n, 0); vz += N[q] * node_v(n, 1);
+      // position at its own parent point, moved with the point it follows
+      xr += N[q] * node_x0(n, 0) + F[q] * (node_x(n, 0) - node_x0(n, 0));
+      xz += N[q] * node_x0(n, 1) + F[q] * (node_x(n, 1) - node_x0(n, 1));
+      vr += F[q] * node_v(n, 0); vz += F[q] * node_v(n, 1);
     }
     x(i, 0) = xr; x(i, 1) = xz;
     v(i, 0) = vr; v(i, 1) = vz;

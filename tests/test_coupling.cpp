@@ -288,7 +288,7 @@ PunchResult tied_punch(double dp_default) {
   cfg.contact.static_friction = cfg.contact.dynamic_friction = 0.0;
   cfg.damping = env_or("TAMP_PUNCH_DAMP", 30.0);  // 1/s, mass-proportional (dynamic relaxation)
   cfg.fem.enabled = true;
-  cfg.fem.element_size = dp;
+  cfg.fem.element_size = env_or("TAMP_PUNCH_ELEMENT", dp);
   cfg.fem.zone_r_min = 0.0; cfg.fem.zone_r_max = zone;
   cfg.fem.zone_z_min = L - zone; cfg.fem.zone_z_max = L;
   const MaterialParams m = make_material(cfg.materials[0]);

@@ -86,7 +86,8 @@ struct FemSpec {
   double grading = 1.0;           // growth of the element edge per element away from the zone (1 = uniform)
   double zone_r_min = 0, zone_r_max = 0;  // m, the SPH zone (particles inside, elements outside)
   double zone_z_min = 0, zone_z_max = 0;  // m
-  double hourglass_coefficient = 0.1;     // stiffness-form hourglass control (docs/fem.md)
+  std::string hourglass = "viscous";      // hourglass control: "viscous" | "stiffness" (docs/fem.md)
+  double hourglass_coefficient = 0.1;     // its coefficient kappa
   double cfl = 0.8;               // element time step fraction of L/c_p (the run's cfl for particles)
 };
 

@@ -616,11 +616,12 @@ void read_fem(const Table& top, Config& cfg) {
   FemSpec& f = cfg.fem;
   const toml::table* tt = sub_table(top, "fem");
   if (!tt) return;
-  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "grading", "sph_zone", "hourglass_coefficient", "cfl"});
+  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "grading", "sph_zone", "hourglass", "hourglass_coefficient", "cfl"});
   f.enabled = boolean(t, "enabled", true);
   const double dp = cfg.sph.spacing;
   f.element_size = number(t, "element_size", dp, ge(dp), "m (>= sph.spacing: finer elements than particles are not tied)");
   f.grading = number(t, "grading", f.grading, ge_le(1, 1.5), "(element edge growth per element away from the SPH zone)");
+  f.hourglass = choice(t, "hourglass", {"viscous", "stiffness"}, "hourglass control", f.hourglass);
   f.hourglass_coefficient = number(t, "hourglass_coefficient", f.hourglass_coefficient, ge_le(0, 1), "");
   f.cfl = number(t, "cfl", f.cfl, gt_le(0, 1), "");
   const std::string zone_shape = "an inline table { r = [r_min, r_max], z = [z_min, z_max] } (m) inside the blocks";
@@ -638,17 +639,6 @@ void read_fem(const Table& top, Config& cfg) {
   f.zone_r_min = (*r)[0]; f.zone_r_max = (*r)[1];
   f.zone_z_min = (*zz)[0]; f.zone_z_max = (*zz)[1];
   if (!f.enabled) return;
-  // The first particle column above a tie at the axis needs its 1/r regularised beyond r = dp/2
-  // (docs/coupling.md: with r_min = 0.25 h it grows unstable at about 20 1/s): default 0.5 here.
-  const toml::node* sph_node = top.find("sph");
-  const toml::node* given = sph_node && sph_node->is_table() ? sph_node->as_table()->get("axis_radius_factor") : nullptr;
-  if (!given) {
-    cfg.sph.axis_radius_factor = std::max(cfg.sph.axis_radius_factor, 0.5);
-  } else if (cfg.sph.axis_radius_factor < 0.5) {
-    top.rep().out_of_range("sph.axis_radius_factor", *given,
-                           "0.5 <= axis_radius_factor <= 1 with [fem] (the particles next to a tie at the axis are "
-                           "unstable below 0.5, docs/coupling.md), or [fem] enabled = false");
-  }
   if (f.zone_r_min != 0.0)
     z.rep().out_of_range(z.path("r"), *z.find("r"), "r = [0, r_max]: the zone is around the axis (a ring-shaped zone is not supported)");
   // the zone lies on the particle grid of the blocks it cuts
@@ -863,6 +853,7 @@ std::string to_toml(const Config& c) {
     o << "grading = " << fmt_float(c.fem.grading) << "\n";
     o << "sph_zone = { r = [" << fmt_float(c.fem.zone_r_min) << ", " << fmt_float(c.fem.zone_r_max) << "], z = ["
       << fmt_float(c.fem.zone_z_min) << ", " << fmt_float(c.fem.zone_z_max) << "] }  # m\n";
+    o << "hourglass = " << quote(c.fem.hourglass) << "\n";
     o << "hourglass_coefficient = " << fmt_float(c.fem.hourglass_coefficient) << "\n";
     o << "cfl = " << fmt_float(c.fem.cfl) << "\n";
   }

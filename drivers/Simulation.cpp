@@ -161,6 +161,9 @@ void Simulation::build_fem() {
   fem::FemOptions opt;
   opt.cfl = f.cfl;
   opt.hourglass_coefficient = f.hourglass_coefficient;
+  // Viscous by default: the stiffness form fed an instability of a tie at the axis
+  // (docs/coupling.md); the viscous form damps hourglass modes instead of storing them.
+  opt.hourglass = f.hourglass == "stiffness" ? fem::HOURGLASS_STIFFNESS : fem::HOURGLASS_VISCOUS;
   opt.gravity = gravity_at(time_);
   opt.damping = sph_.damping;
   own_fem_ = std::make_unique<fem::FemModel>(mats, grid, opt);
@@ -1101,6 +1104,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
         const double num = s0 * r_at(s0) + 4 * s * r_at(s) + s1 * r_at(s1);
         const double den = r_at(s0) + 4 * r_at(s) + r_at(s1);
         ea.push_back(E.a); eb.push_back(E.b); es.push_back(den > 0 ? num / den : s);
+
         const double dist = (x0(E.a, 0) - r) * E.n_r + (x0(E.a, 1) - z) * E.n_z;  // to the edge's line
         depth.push_back(dist);
         face.push_back(2.0 * pi * (r + dist * E.n_r) * len * d);  // ring area of the segment

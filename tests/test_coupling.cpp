@@ -294,7 +294,8 @@ PunchResult tied_punch(double dp_default) {
   const MaterialParams m = make_material(cfg.materials[0]);
   cfg.fem.grading = growth;
   cfg.fem.hourglass_coefficient = env_or("TAMP_PUNCH_HG", cfg.fem.hourglass_coefficient);
-  cfg.sph.axis_radius_factor = env_or("TAMP_PUNCH_AXIS", 0.5);  // what the deck reader sets with [fem]
+  cfg.sph.axis_radius_factor = env_or("TAMP_PUNCH_AXIS", cfg.sph.axis_radius_factor);
+  if (std::getenv("TAMP_PUNCH_STIFF_HG")) cfg.fem.hourglass = "stiffness";  // the unstable combination
   Simulation sim(cfg);
   REQUIRE(sim.fem() != nullptr);
   const ParticleSnapshot s0 = sim.snapshot();
@@ -355,11 +356,16 @@ PunchResult tied_punch(double dp_default) {
 TEST_CASE("Tie: rigid smooth punch on a half-space, particles under the punch in a graded element far field",
           "[tie][fem][contact][verification]") {
   // Issue 3, test 3 (Boussinesq; Timoshenko & Goodier: w = P (1 - nu^2) / (2 a E)). The error
-  // is that of the particles under the punch, first order in dp/a (the free-surface layer):
-  // +14.9 % at dp = a/10, +9.3 % at a/20, +6.5 % at a/40 (docs/coupling.md; the far field
-  // changes it by < 1 point from L = 12a to 40a). Checked here: the relative error e(dp) at
-  // a/10 and a/20, and its first-order (Richardson) extrapolation 2 e(a/20) - e(a/10) to
-  // dp -> 0, within the issue's 5 %; the error must fall with dp.
+  // is that of the particles under the punch, about first order in dp/a (the free-surface
+  // layer): +14.9 % at dp = a/10, +9.3 % at a/20, +6.0 % at a/40 (observed order 0.8;
+  // docs/coupling.md; the far field changes it by < 1 point from L = 12a to 40a). Checked
+  // here: the relative error e(dp) at a/10 and a/20, and its first-order (Richardson)
+  // extrapolation 2 e(a/20) - e(a/10) to dp -> 0, within the issue's 5 %; the error must
+  // fall with dp.
+  if (std::getenv("TAMP_PUNCH_DP")) {  // a study at one resolution (docs/coupling.md): no check
+    (void)tied_punch(0.0);
+    return;
+  }
   const PunchResult coarse = tied_punch(0.005), fine = tied_punch(0.0025);
   const double e_coarse = coarse.w / coarse.w_exact - 1, e_fine = fine.w / fine.w_exact - 1;
   const double e_limit = 2 * e_fine - e_coarse;

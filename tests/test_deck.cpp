@@ -611,7 +611,7 @@ TEST_CASE("Deck: the drop-sequence sections parse, validate and round-trip", "[d
   require_error(p.text(), {"tracers[0].name", "without commas"});
 }
 
-TEST_CASE("Deck: [fem] parses, defaults the axis regularisation, validates and round-trips", "[deck][fem]") {
+TEST_CASE("Deck: [fem] parses, validates and round-trips", "[deck][fem]") {
   Parts p;
   p.rest = "[fem]\nelement_size = 0.02\ngrading = 1.1\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
   const Config c = parse_deck(p.text(), "deck.toml");
@@ -620,23 +620,21 @@ TEST_CASE("Deck: [fem] parses, defaults the axis regularisation, validates and r
   CHECK(c.fem.grading == 1.1);
   CHECK(c.fem.zone_r_max == 0.3);
   CHECK(c.fem.zone_z_min == 0.5);
-  CHECK(c.sph.axis_radius_factor == 0.5);  // raised from 0.25 with [fem] (docs/coupling.md)
+  CHECK(c.fem.hourglass == "viscous");  // the default with a tie (docs/coupling.md)
   const Config back = parse_deck(tamp::to_toml(c), "deck.toml");
   CHECK(back.fem.enabled);
   CHECK(back.fem.grading == 1.1);
   CHECK(back.fem.zone_z_max == 1.0);
-  CHECK(back.sph.axis_radius_factor == 0.5);
-  // the deck switch: off leaves everything in particles and the axis default alone
+  CHECK(back.fem.hourglass == "viscous");
+  // the deck switch: off leaves everything in particles
   Parts off = p;
   off.rest = "[fem]\nenabled = false\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
   const Config c_off = parse_deck(off.text(), "deck.toml");
   CHECK_FALSE(c_off.fem.enabled);
-  CHECK(c_off.sph.axis_radius_factor == 0.25);
   // errors name the file, the key, the value and what is allowed
   Parts bad = p;
-  bad.sph = "[sph]\nspacing = 0.01\naxis_radius_factor = 0.25\n";
-  require_error(bad.text(), {"sph.axis_radius_factor", "0.25", "0.5 <= axis_radius_factor", "[fem]"});
-  bad = p;
+  bad.rest = "[fem]\nhourglass = \"stiff\"\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
+  require_error(bad.text(), {"fem.hourglass", "stiff", "viscous", "stiffness"});
   bad.rest = "[fem]\nelement_size = 0.005\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
   require_error(bad.text(), {"fem.element_size", "0.005", "sph.spacing"});
   bad.rest = "[fem]\nsph_zone = { r = [0, 0.305], z = [0.5, 1.0] }\n";

@@ -79,7 +79,6 @@ Config coupled_ci_deck() {
   cfg.fem.zone_r_max = 0.15;
   cfg.fem.zone_z_min = 0.2;
   cfg.fem.zone_z_max = 0.5;
-  cfg.sph.axis_radius_factor = 0.5;  // what the deck reader sets with [fem] (docs/coupling.md)
   return cfg;
 }
 

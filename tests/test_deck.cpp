@@ -637,6 +637,8 @@ TEST_CASE("Deck: [fem] parses, validates and round-trips", "[deck][fem]") {
   require_error(bad.text(), {"fem.hourglass", "stiff", "viscous", "stiffness"});
   bad.rest = "[fem]\nelement_size = 0.005\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
   require_error(bad.text(), {"fem.element_size", "0.005", "sph.spacing"});
+  bad.rest = "[fem]\nelement_size = 0.04\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
+  require_error(bad.text(), {"fem.element_size", "0.04", "2 sph.spacing", "unstable"});
   bad.rest = "[fem]\nsph_zone = { r = [0, 0.305], z = [0.5, 1.0] }\n";
   require_error(bad.text(), {"fem.sph_zone.r", "whole particle spacings"});
   bad.rest = "[fem]\nelement_size = 0.02\n";

@@ -146,16 +146,15 @@ void Simulation::build_fem() {
       if (r > f.zone_r_min && r < f.zone_r_max && z > f.zone_z_min && z < f.zone_z_max) continue;
       for (const BlockSpec& b : config_.blocks) {
         if (!(r > b.r_min && r < b.r_max && z > b.z_min && z < b.z_max)) continue;
-        int dm = 0;
-        for (size_t k = 0; k < config_.materials.size(); ++k)
-          if (config_.materials[k].name == b.material) dm = static_cast<int>(k);
-        const auto it = std::find(deck_of.begin(), deck_of.end(), dm);
+        const int dm = std::max(0, material_index(b.material));
+        auto it = std::find(deck_of.begin(), deck_of.end(), dm);
         if (it == deck_of.end()) {
           deck_of.push_back(dm);
           mats.push_back(materials_host_[dm]);
           names.push_back(b.material);
+          it = deck_of.end() - 1;
         }
-        grid.material[j * nr + i] = static_cast<int>(std::find(deck_of.begin(), deck_of.end(), dm) - deck_of.begin());
+        grid.material[j * nr + i] = static_cast<int>(it - deck_of.begin());
       }
     }
   fem::FemOptions opt;
@@ -183,6 +182,13 @@ void Simulation::build_fem() {
   wall(config_.outer, "outer", fem::FemSide::Outer, grid.r.back(), 0, -1);
   m.hold_boundary_forces();
   tie_fem(m, names);
+}
+
+int Simulation::material_index(const std::string& name) const {
+  int mat = -1;  // the last deck material of that name (names are unique in a valid deck)
+  for (size_t k = 0; k < config_.materials.size(); ++k)
+    if (config_.materials[k].name == name) mat = static_cast<int>(k);
+  return mat;
 }
 
 void Simulation::ensure_pair_storage() {
@@ -273,9 +279,7 @@ void Simulation::build_particles() {
       b.z_min = std::max(b.z_min, f.zone_z_min); b.z_max = std::min(b.z_max, f.zone_z_max);
       if (!(b.r_max - b.r_min > 0.5 * dp && b.z_max - b.z_min > 0.5 * dp)) continue;
     }
-    int mat = -1;
-    for (size_t k = 0; k < config_.materials.size(); ++k)
-      if (config_.materials[k].name == b.material) mat = static_cast<int>(k);
+    const int mat = material_index(b.material);
     if (mat < 0) throw std::invalid_argument("block refers to unknown material '" + b.material + "'");
     const int nr = static_cast<int>(std::lround((b.r_max - b.r_min) / dp));
     const int nz = static_cast<int>(std::lround((b.z_max - b.z_min) / dp));
@@ -618,9 +622,7 @@ void Simulation::set_geostatic_stress(double k0) {
   constexpr int max_layers = GeostaticLayers::max_layers;
   for (const auto& b : config_.blocks) {
     if (layers.n == max_layers) throw std::invalid_argument("set_geostatic_stress: more than 16 blocks");
-    int mat = 0;
-    for (size_t k = 0; k < config_.materials.size(); ++k)
-      if (config_.materials[k].name == b.material) mat = static_cast<int>(k);
+    const int mat = std::max(0, material_index(b.material));
     layers.z_bot[layers.n] = b.z_min;
     layers.z_top[layers.n] = b.z_max;
     layers.gamma[layers.n] = materials_host_[mat].density * config_.gravity;
@@ -999,9 +1001,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
                                 std::to_string(fem.materials().size()) + ")");
   std::vector<int> sph_mat;
   for (const std::string& name : fem_materials) {
-    int mat = -1;
-    for (size_t k = 0; k < config_.materials.size(); ++k)
-      if (config_.materials[k].name == name) mat = static_cast<int>(k);
+    const int mat = material_index(name);
     if (mat < 0) throw std::invalid_argument("tie_fem: material '" + name + "' is not in the deck");
     sph_mat.push_back(mat);
   }

@@ -159,6 +159,7 @@ class Simulation {
 
  private:
   void build_materials();
+  int material_index(const std::string& name) const;  // index in the deck's materials, -1: none
   void build_particles();
   void refresh_neighbours(bool force);
   void rebuild_lists();  // forced neighbour rebuild + pair kernel factors

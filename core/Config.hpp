@@ -128,10 +128,11 @@ struct ScheduleSpec {
   double ground_level = 0.0;      // m, z of the original ground surface (0 = top of the blocks)
   double relax_time = 0.2;        // s, damped relaxation before the first blow
   double damping = 60.0;          // 1/s, mass-proportional damping of the rest/settle phases
-  double rest_speed = 0.05;       // m/s: the pounder is at rest below this speed ...
-  double rest_hold = 0.003;       // s: ... held for this long
+  double rest_speed = 0.05;       // m/s: the pounder is at rest in contact below this speed ...
+  double rest_force_tolerance = 0.2;  // ... with the contact force within this fraction of its weight ...
+  double rest_hold = 0.003;       // s: ... both held for this long
   double rest_time = 0.02;        // s of damped settling with the pounder in place
-  double max_impact_time = 0.3;   // s: an impact stage ends here even without rest
+  double max_impact_time = 1.0;   // s: an impact stage ends here even without rest (warning)
   double extract_time = 0.01;     // s of damped settling after the pounder is lifted out
   double settle_time = 0.03;      // s of damped settling after a charge
   double tracer_interval = 0.001; // s of simulated time between tracer records

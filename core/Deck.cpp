@@ -681,7 +681,7 @@ void read_schedule(const Table& top, Config& cfg) {
   if (!tt) return;
   const Table t(top.rep(), *tt, "schedule",
                 {"drop_heights", "backfill_after", "drop_height_from", "ground_level", "relax_time", "damping",
-                 "rest_speed", "rest_hold", "rest_time", "max_impact_time", "extract_time", "settle_time",
+                 "rest_speed", "rest_force_tolerance", "rest_hold", "rest_time", "max_impact_time", "extract_time", "settle_time",
                  "tracer_interval"});
   s.enabled = true;
   s.drop_heights = number_array(t, "drop_heights", gt(0), "m");
@@ -694,6 +694,7 @@ void read_schedule(const Table& top, Config& cfg) {
   s.relax_time = number(t, "relax_time", s.relax_time, ge(0), "s");
   s.damping = number(t, "damping", s.damping, ge(0), "1/s");
   s.rest_speed = number(t, "rest_speed", s.rest_speed, gt(0), "m/s");
+  s.rest_force_tolerance = number(t, "rest_force_tolerance", s.rest_force_tolerance, gt(0), "-");
   s.rest_hold = number(t, "rest_hold", s.rest_hold, ge(0), "s");
   s.rest_time = number(t, "rest_time", s.rest_time, ge(0), "s");
   s.max_impact_time = number(t, "max_impact_time", s.max_impact_time, gt(0), "s");
@@ -894,6 +895,7 @@ std::string to_toml(const Config& c) {
     o << "relax_time = " << fmt_float(s.relax_time) << "  # s\n";
     o << "damping = " << fmt_float(s.damping) << "  # 1/s\n";
     o << "rest_speed = " << fmt_float(s.rest_speed) << "  # m/s\n";
+    o << "rest_force_tolerance = " << fmt_float(s.rest_force_tolerance) << "  # -\n";
     o << "rest_hold = " << fmt_float(s.rest_hold) << "  # s\n";
     o << "rest_time = " << fmt_float(s.rest_time) << "  # s\n";
     o << "max_impact_time = " << fmt_float(s.max_impact_time) << "  # s\n";

@@ -14,6 +14,10 @@ enum ParticleFlag : int {
   // Held by the k-th non-reflecting boundary (its boundary layer when the boundary stress
   // was recorded): bit FLAG_HELD_BOUNDARY << k, k = 0 .. 3.
   FLAG_HELD_BOUNDARY = 2,
+  // A mirror particle of a fixed (rough) wall: the Acceleration loop sums its pair forces
+  // apart, as the wall's normal support of the particle, for the wall's Coulomb friction
+  // (kernels/WallFriction.hpp). Set on ghosts only.
+  FLAG_FIXED_WALL_GHOST = 64,
 };
 
 struct Particles {

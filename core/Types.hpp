@@ -30,6 +30,7 @@ KOKKOS_INLINE_FUNCTION double abs(double x) { return ::fabs(x); }
 KOKKOS_INLINE_FUNCTION double sin(double x) { return ::sin(x); }
 KOKKOS_INLINE_FUNCTION double cos(double x) { return ::cos(x); }
 KOKKOS_INLINE_FUNCTION double atan2(double y, double x) { return ::atan2(y, x); }
+KOKKOS_INLINE_FUNCTION double tan(double x) { return ::tan(x); }
 KOKKOS_INLINE_FUNCTION double exp(double x) { return ::exp(x); }
 KOKKOS_INLINE_FUNCTION double log(double x) { return ::log(x); }
 KOKKOS_INLINE_FUNCTION double pow(double x, double y) { return ::pow(x, y); }

@@ -31,6 +31,8 @@ const char* kind_name(StageKind k) {
   }
 }
 
+std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out);
+
 HostParticles host_particles(Simulation& sim) {
   const ParticleSnapshot s = sim.snapshot();
   return {s.r, s.z, s.mass, s.density, s.material};
@@ -72,6 +74,26 @@ double highest_within(const ViewN<double, 2>& x, int n, double reach) {
 }  // namespace
 
 bool is_drop_sequence_checkpoint(const Checkpoint& c) { return c.scalars.count("seq_next_stage") > 0; }
+
+const std::vector<BlowColumn>& blow_columns() {
+  using B = BlowRecord;
+  static const std::vector<BlowColumn> columns{
+      {"drop_height_m", &B::drop_height_m},       {"crater_depth_m", &B::crater_depth_m},
+      {"deepest_m", &B::deepest_m},               {"penetration_m", &B::penetration_m},
+      {"contacts", &B::contacts},                 {"restitution", &B::restitution},
+      {"peak_deceleration_m_s2", &B::peak_deceleration_m_s2},
+      {"rest_in_contact", &B::rest_in_contact},   {"crater_floor_m", &B::crater_floor_m},
+      {"uplift_m", &B::uplift_m},                 {"aggregate_added_kg", &B::aggregate_added_kg},
+      {"energy_in_J", &B::energy_in_J},           {"elastic_J", &B::elastic_J},
+      {"soil_motion_J", &B::soil_motion_J},       {"viscous_heat_J", &B::viscous_heat_J},
+      {"radiated_J", &B::radiated_J},             {"damping_J", &B::damping_J},
+      {"wall_friction_J", &B::wall_friction_J},   {"contact_J", &B::contact_J},
+      {"artificial_stress_J", &B::artificial_stress_J},
+      {"returned_J", &B::returned_J},             {"residual_J", &B::residual_J},
+      {"contact_time_s", &B::contact_time_s},     {"flight_time_s", &B::flight_time_s},
+      {"rest_time_s", &B::rest_time_s}};
+  return columns;
+}
 
 DropSequence::DropSequence(Simulation& sim, const Config& cfg, std::string out)
     : sim_(sim), cfg_(cfg), out_(std::move(out)), series_(out_ + "/stages.xdmf") {
@@ -123,6 +145,7 @@ BlowRecord& DropSequence::blow_record(int blow) {
     BlowRecord r;
     r.blow = static_cast<int>(blows_.size()) + 1;
     r.drop_height_m = cfg_.schedule.drop_heights[r.blow - 1];
+    r.plastic_J.assign(cfg_.materials.size(), 0.0);
     blows_.push_back(r);
   }
   return blows_[blow - 1];
@@ -133,6 +156,21 @@ BlowRecord& DropSequence::blow_record(int blow) {
 double DropSequence::surface_under_pounder() const {
   return highest_within(sim_.particles().x, sim_.particle_count(),
                         0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing);
+}
+
+// Crater floor after extraction, m below the original ground: the mean top of the
+// material (any, aggregate included; splashed single grains excluded, see soil_surface)
+// in the radial columns of width dp under the pounder's base (r < base_diameter / 2).
+double DropSequence::crater_floor() const {
+  const double dp = cfg_.sph.spacing;
+  const HostParticles hp = host_particles(sim_);
+  const double rb = 0.5 * cfg_.pounder.base_diameter;
+  const std::vector<double> top = soil_surface(hp, -1, dp, rb + dp);
+  double sum = 0;
+  int n = 0;
+  for (size_t k = 0; k < top.size(); ++k)
+    if ((k + 0.5) * dp < rb && top[k] > -1e299) { sum += top[k]; ++n; }
+  return n ? ground_ - sum / n : 0.0;
 }
 
 void DropSequence::begin_impact(const Stage& s) {
@@ -146,40 +184,149 @@ void DropSequence::begin_impact(const Stage& s) {
   const double v0 = std::sqrt(2.0 * cfg_.gravity * fall);
   sim_.set_damping(cfg_.damping);
   sim_.place_body(0.0, z0, 0.0, -v0);
-  z_start_ = sim_.body().contact.touching > 0 ? z0 : 1e300;  // set at the first contact
+  z_start_ = 1e300;  // set at the first contact
   peak_dec_ = 0;
   rest_since_ = -1;
   phase_ = 0;
+  v_in_ = 0;
+  up_max_ = 0;
+  out_since_ = -1;
+  pending_return_ = 0;
+  deepest_z_ = z0;
+  contacts_ = 0;
+  first_rebound_open_ = 1;
+  returned_ = 0;
+  in_contact_ = 0;
+  contact_time_ = flight_time_ = 0;
+  energy0_ = energy_state();
   BlowRecord& rec = blow_record(s.blow);
   rec.drop_height_m = cfg_.schedule.drop_heights[s.blow - 1];
 }
 
+// The energies the blow's account differences, in this order: pounder (kinetic +
+// potential), contact, damping / boundary / wall-friction / artificial-stress work (EnergyLedger), then per
+// material kinetic, internal, potential, elastic, viscous heat.
+std::vector<double> DropSequence::energy_state() const {
+  const EnergyLedger& L = sim_.ledger();
+  std::vector<double> e{sim_.body_energy(), sim_.contact_energy(), L.damping_J, L.boundary_J, L.wall_friction_J,
+                        L.artificial_stress_J};
+  const std::vector<MaterialEnergy> me = sim_.material_energies();
+  for (size_t k = 0; k < me.size(); ++k)
+    for (double v : {me[k].kinetic, me[k].internal, me[k].potential, me[k].elastic, L.heat_J[k]}) e.push_back(v);
+  return e;
+}
+
+// A blow is followed until the pounder is at rest *in contact*: touching the soil with an
+// upward contact force, speed below rest_speed and the contact force within
+// rest_force_tolerance of its weight, all held for rest_hold; then rest_time of damped
+// settling. A rebound is followed through its flight to the next impact. A contact phase
+// is counted when the pounder lands again after at least min_flight out of contact (so
+// that the chatter of single particles at the rim is not a rebound).
 bool DropSequence::impact_step() {
+  constexpr double min_flight = 1e-3;  // s
   const ScheduleSpec& sch = cfg_.schedule;
+  const double t_before = sim_.time();
   sim_.step();
+  const double dt = sim_.time() - t_before;
   const RigidBody& b = sim_.body();
   const double t = sim_.time() - stage_t0_;
-  if (z_start_ > 1e299 && b.contact.touching > 0) z_start_ = b.z0;  // first contact
-  if (phase_ == 0) {
-    peak_dec_ = std::max(peak_dec_, b.a_z);  // upward acceleration = deceleration of the fall
-    if (std::fabs(b.v_z) < sch.rest_speed && t > sch.rest_hold) {
-      if (rest_since_ < 0) rest_since_ = sim_.time();
-      if (sim_.time() - rest_since_ >= sch.rest_hold) {
-        phase_ = 1;
-        rest_since_ = sim_.time();
-        sim_.set_damping(sch.damping);
-      }
-    } else {
-      rest_since_ = -1;
+  const double weight = b.mass * cfg_.gravity;
+  const double lift = -b.contact.force_z;  // upward contact force on the pounder, N
+  const bool touching = b.contact.touching > 0 && lift > 0.01 * weight;
+  deepest_z_ = std::min(deepest_z_, b.z0);
+  if (phase_ == 1) return sim_.time() - rest_since_ < sch.rest_time;
+
+  peak_dec_ = std::max(peak_dec_, b.a_z);  // upward acceleration = deceleration of the fall
+  if (touching) {
+    if (z_start_ > 1e299) {  // first contact
+      z_start_ = b.z0;
+      v_in_ = std::fabs(b.v_z);
+      contacts_ = 1;
+    } else if (out_since_ >= 0 && sim_.time() - out_since_ >= min_flight) {
+      // landing after a flight: a new contact; the first rebound is over
+      contacts_ += 1;
+      first_rebound_open_ = 0;
     }
-    if (t >= sch.max_impact_time) {
-      log::warn("blow " + std::to_string(stages_[next_stage_].blow) + ": the pounder did not come to rest within max_impact_time = " +
-                std::to_string(sch.max_impact_time) + " s (speed " + std::to_string(b.v_z) + " m/s); going on");
-      return false;
+    out_since_ = -1;
+    in_contact_ = 1;
+    contact_time_ += dt;
+  } else {
+    if (in_contact_ > 0) {  // leaving contact: the speed the soil gave back
+      out_since_ = sim_.time();
+      pending_return_ = b.v_z > 0 ? 0.5 * b.mass * b.v_z * b.v_z : 0.0;
     }
-    return true;
+    if (out_since_ >= 0 && pending_return_ > 0 && sim_.time() - out_since_ >= min_flight) {
+      returned_ += pending_return_;  // a real flight, not a flicker
+      pending_return_ = 0;
+    }
+    in_contact_ = 0;
+    flight_time_ += dt;
   }
-  return sim_.time() - rest_since_ < sch.rest_time;
+  if (z_start_ < 1e299 && first_rebound_open_ > 0) up_max_ = std::max(up_max_, b.v_z);
+
+  const bool at_rest = touching && std::fabs(b.v_z) < sch.rest_speed &&
+                       std::fabs(lift - weight) < sch.rest_force_tolerance * weight;
+  if (at_rest) {
+    if (rest_since_ < 0) rest_since_ = sim_.time();
+    if (sim_.time() - rest_since_ >= sch.rest_hold) {
+      phase_ = 1;
+      rest_since_ = sim_.time();
+      sim_.set_damping(sch.damping);
+      blow_record(stages_[next_stage_].blow).rest_in_contact = 1;
+    }
+  } else {
+    rest_since_ = -1;
+  }
+  if (t >= sch.max_impact_time) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "blow %d: the pounder did not come to rest in contact within max_impact_time = %g s "
+                  "(speed %.3f m/s, contact force %.1f N, weight %.1f N, %s); the blow is recorded as it stands",
+                  stages_[next_stage_].blow, sch.max_impact_time, b.v_z, lift, weight,
+                  touching ? "touching the soil" : "in the air");
+    log::warn(buf);
+    blow_record(stages_[next_stage_].blow).rest_in_contact = 0;
+    return false;
+  }
+  return true;
+}
+
+// The blow's record at the end of its impact stage: position, contacts and energy account.
+void DropSequence::end_impact(BlowRecord& rec) {
+  const RigidBody& b = sim_.body();
+  rec.crater_depth_m = ground_ - b.z0;
+  rec.deepest_m = ground_ - deepest_z_;
+  rec.penetration_m = z_start_ < 1e299 ? z_start_ - b.z0 : 0.0;
+  rec.contacts = contacts_;
+  rec.restitution = v_in_ > 0 ? std::max(0.0, up_max_) / v_in_ : 0.0;
+  rec.peak_deceleration_m_s2 = peak_dec_;
+  rec.returned_J = returned_ + pending_return_;
+  rec.contact_time_s = contact_time_;
+  rec.flight_time_s = flight_time_;
+  rec.rest_time_s = phase_ == 1 ? sim_.time() - rest_since_ : 0.0;
+  const std::vector<double> e1 = energy_state();
+  const std::vector<double>& e0 = energy0_;
+  auto d = [&](size_t k) { return e1[k] - e0[k]; };
+  rec.energy_in_J = -d(0);
+  rec.contact_J = d(1);
+  rec.damping_J = -d(2);
+  rec.radiated_J = -d(3);
+  rec.wall_friction_J = -d(4);
+  rec.artificial_stress_J = d(5);
+  rec.elastic_J = rec.soil_motion_J = rec.viscous_heat_J = 0;
+  const size_t nm = cfg_.materials.size();
+  rec.plastic_J.assign(nm, 0.0);
+  double internal = 0;
+  for (size_t m = 0; m < nm; ++m) {
+    const size_t k = 6 + 5 * m;
+    rec.soil_motion_J += d(k) + d(k + 2);
+    rec.elastic_J += d(k + 3);
+    rec.viscous_heat_J += d(k + 4);
+    rec.plastic_J[m] = d(k + 1) - d(k + 3) - d(k + 4);
+    internal += d(k + 1);
+  }
+  rec.residual_J = rec.energy_in_J + rec.artificial_stress_J - (rec.soil_motion_J + internal + rec.contact_J + rec.radiated_J + rec.damping_J +
+                                      rec.wall_friction_J);
 }
 
 void DropSequence::backfill(const Stage& s) {
@@ -250,8 +397,10 @@ void DropSequence::record(bool force) {
   if (b.active)
     pounder_rows_.push_back({sim_.time(), double(st.blow), b.z0, b.v_z, b.a_z, -b.contact.force_z});
   const Energies e = sim_.energies();
+  const EnergyLedger& L = sim_.ledger();
   energy_rows_.push_back({sim_.time(), e.kinetic, e.internal, e.potential, sim_.body_energy(), sim_.contact_energy(),
-                          e.total() + sim_.body_energy() + sim_.contact_energy()});
+                          e.total() + sim_.body_energy() + sim_.contact_energy(), -L.damping_J, -L.boundary_J,
+                          -L.wall_friction_J, sim_.accounted_energy()});
 }
 
 void DropSequence::progress(int k, bool force) {
@@ -283,12 +432,27 @@ Checkpoint DropSequence::checkpoint() {
   c.scalars["seq_phase"] = phase_;
   c.scalars["seq_next_record"] = next_record_;
   c.scalars["seq_wall_done"] = wall_done_ + stage_wall_;
+  c.scalars["seq_v_in"] = v_in_;
+  c.scalars["seq_up_max"] = up_max_;
+  c.scalars["seq_out_since"] = out_since_;
+  c.scalars["seq_pending_return"] = pending_return_;
+  c.scalars["seq_deepest_z"] = deepest_z_;
+  c.scalars["seq_contacts"] = contacts_;
+  c.scalars["seq_first_rebound_open"] = first_rebound_open_;
+  c.scalars["seq_returned"] = returned_;
+  c.scalars["seq_in_contact"] = in_contact_;
+  c.scalars["seq_contact_time"] = contact_time_;
+  c.scalars["seq_flight_time"] = flight_time_;
+  c.reals["seq_energy0"].values = energy0_;
   auto& br = c.reals["seq_blows"];
-  br.width = 8;
-  for (const auto& b : blows_)
-    for (double v : {double(b.blow), b.drop_height_m, b.crater_depth_m, b.penetration_m, b.peak_deceleration_m_s2,
-                     b.uplift_m, b.aggregate_added_kg, b.wall_s})
-      br.values.push_back(v);
+  const auto& cols = blow_columns();
+  br.width = static_cast<int>(2 + cols.size() + cfg_.materials.size());
+  for (const auto& b : blows_) {
+    br.values.push_back(b.blow);
+    for (const auto& col : cols) br.values.push_back(b.*col.field);
+    for (size_t m = 0; m < cfg_.materials.size(); ++m) br.values.push_back(m < b.plastic_J.size() ? b.plastic_J[m] : 0.0);
+    br.values.push_back(b.wall_s);
+  }
   auto rows = [&](const char* name, const std::vector<std::vector<double>>& t, int width) {
     auto& a = c.reals[name];
     a.width = width;
@@ -296,7 +460,7 @@ Checkpoint DropSequence::checkpoint() {
   };
   rows("seq_tracers", tracer_rows_, 3 + 2 * static_cast<int>(tracer_index_.size()));
   rows("seq_pounder", pounder_rows_, 6);
-  rows("seq_energy", energy_rows_, 7);
+  rows("seq_energy", energy_rows_, 11);
   auto& ti = c.ints["seq_tracer_index"];
   ti.values = tracer_index_;
   auto& t0 = c.reals["seq_tracer_origin"];
@@ -325,11 +489,34 @@ void DropSequence::restore(const Checkpoint& c) {
   phase_ = static_cast<int>(s("seq_phase"));
   next_record_ = s("seq_next_record");
   wall_done_ = s("seq_wall_done");
+  auto opt = [&](const char* k) { return c.scalars.count(k) ? c.scalars.at(k) : 0.0; };
+  v_in_ = opt("seq_v_in");
+  up_max_ = opt("seq_up_max");
+  out_since_ = c.scalars.count("seq_out_since") ? c.scalars.at("seq_out_since") : -1.0;
+  pending_return_ = opt("seq_pending_return");
+  deepest_z_ = c.scalars.count("seq_deepest_z") ? c.scalars.at("seq_deepest_z") : 1e300;
+  contacts_ = opt("seq_contacts");
+  first_rebound_open_ = opt("seq_first_rebound_open");
+  returned_ = opt("seq_returned");
+  in_contact_ = opt("seq_in_contact");
+  contact_time_ = opt("seq_contact_time");
+  flight_time_ = opt("seq_flight_time");
+  energy0_ = c.reals.count("seq_energy0") ? c.reals.at("seq_energy0").values : std::vector<double>{};
   blows_.clear();
   const auto& br = c.reals.at("seq_blows");
-  for (size_t i = 0; i + 8 <= br.values.size(); i += 8) {
+  const auto& cols = blow_columns();
+  const size_t nm = cfg_.materials.size(), width = 2 + cols.size() + nm;
+  if (br.width != static_cast<int>(width))
+    throw std::invalid_argument("the checkpoint's blow table has " + std::to_string(br.width) + " columns; this version writes " +
+                                std::to_string(width) + " (a checkpoint of an older Tamp or of another deck)");
+  for (size_t i = 0; i + width <= br.values.size(); i += width) {
     const double* v = &br.values[i];
-    blows_.push_back({int(v[0]), v[1], v[2], v[3], v[4], v[5], v[6], v[7]});
+    BlowRecord b;
+    b.blow = static_cast<int>(v[0]);
+    for (size_t k = 0; k < cols.size(); ++k) b.*cols[k].field = v[1 + k];
+    b.plastic_J.assign(v + 1 + cols.size(), v + 1 + cols.size() + nm);
+    b.wall_s = v[width - 1];
+    blows_.push_back(b);
   }
   auto rows = [&](const char* name, std::vector<std::vector<double>>& t) {
     t.clear();
@@ -354,14 +541,11 @@ void DropSequence::end_stage(int k) {
   const Stage& s = stages_[k];
   const ScheduleSpec& sch = cfg_.schedule;
   (void)sch;
-  if (s.kind == StageKind::Impact) {
-    BlowRecord& rec = blow_record(s.blow);
-    const RigidBody& b = sim_.body();
-    rec.crater_depth_m = ground_ - b.z0;
-    rec.penetration_m = z_start_ < 1e299 ? z_start_ - b.z0 : 0.0;
-    rec.peak_deceleration_m_s2 = peak_dec_;
+  if (s.kind == StageKind::Impact) end_impact(blow_record(s.blow));
+  if (s.kind == StageKind::Extract) {
+    blow_record(s.blow).uplift_m = uplift();
+    blow_record(s.blow).crater_floor_m = crater_floor();
   }
-  if (s.kind == StageKind::Extract) blow_record(s.blow).uplift_m = uplift();
   if (s.blow > 0) blow_record(s.blow).wall_s += stage_wall_;
   wall_done_ += stage_wall_;
   stage_wall_ = 0;
@@ -545,14 +729,19 @@ ColumnSummary DropSequence::column(const HostParticles& hp) const {
 }
 
 void DropSequence::write_tables(double wall_s) const {
+  std::vector<std::string> header{"blow"};
+  for (const auto& col : blow_columns()) header.push_back(col.name);
+  for (const auto& m : cfg_.materials) header.push_back("plastic_" + m.name + "_J");
+  header.push_back("wall_s");
   std::vector<std::vector<double>> rows;
-  for (const auto& b : blows_)
-    rows.push_back({double(b.blow), b.drop_height_m, b.crater_depth_m, b.penetration_m, b.peak_deceleration_m_s2,
-                    b.uplift_m, b.aggregate_added_kg, b.wall_s});
-  write_csv(out_ + "/blows.csv",
-            {"blow", "drop_height_m", "crater_depth_m", "penetration_m", "peak_deceleration_m_s2", "uplift_m",
-             "aggregate_added_kg", "wall_s"},
-            rows);
+  for (const auto& b : blows_) {
+    std::vector<double> r{double(b.blow)};
+    for (const auto& col : blow_columns()) r.push_back(b.*col.field);
+    for (size_t m = 0; m < cfg_.materials.size(); ++m) r.push_back(m < b.plastic_J.size() ? b.plastic_J[m] : 0.0);
+    r.push_back(b.wall_s);
+    rows.push_back(r);
+  }
+  write_csv(out_ + "/blows.csv", header, rows);
   std::vector<std::string> th{"time_s", "blow", "stage"};
   for (const auto& t : cfg_.tracers) {
     th.push_back(t.name + "_dz_m");
@@ -561,7 +750,9 @@ void DropSequence::write_tables(double wall_s) const {
   write_csv(out_ + "/tracers.csv", th, tracer_rows_);
   write_csv(out_ + "/pounder.csv", {"time_s", "blow", "base_z_m", "v_z_m_s", "a_z_m_s2", "force_z_N"}, pounder_rows_);
   write_csv(out_ + "/energy.csv",
-            {"time_s", "kinetic_J", "internal_J", "potential_J", "pounder_J", "contact_J", "total_J"}, energy_rows_);
+            {"time_s", "kinetic_J", "internal_J", "potential_J", "pounder_J", "contact_J", "total_J", "damped_J",
+             "radiated_J", "wall_friction_J", "accounted_J"},
+            energy_rows_);
   if (next_stage_ < static_cast<int>(stages_.size())) return;
   const ColumnSummary c = column();
   std::vector<std::vector<double>> crow;

@@ -19,16 +19,48 @@
 
 namespace tamp {
 
+// What one blow did (blows.csv; definitions in docs/drop-sequence.md). Lengths in m,
+// below the original ground level where they are depths; energies in J over the impact
+// stage (placement of the pounder to the end of its damped rest).
 struct BlowRecord {
   int blow = 0;
   double drop_height_m = 0;
-  double crater_depth_m = 0;           // original ground level - pounder base at rest
+  double crater_depth_m = 0;           // original ground level - pounder base at rest in contact
+  double deepest_m = 0;                // original ground level - lowest pounder base of the blow
   double penetration_m = 0;            // pounder base at its first contact - at rest
+  double contacts = 0;                 // contact phases: 1 + rebounds that left the soil >= 1 ms
+  double restitution = 0;              // first rebound: largest upward speed / speed at first contact
   double peak_deceleration_m_s2 = 0;   // largest upward acceleration of the pounder
+  double rest_in_contact = 0;          // 1: ended at rest in contact; 0: at max_impact_time
+  double crater_floor_m = 0;           // after extraction: ground - top of the material under the base
   double uplift_m = 0;                 // largest heave of the soil surface beside the pounder
   double aggregate_added_kg = 0;       // charge poured after this blow
+  // energy account of the impact stage
+  double energy_in_J = 0;              // brought by the pounder: its kinetic + potential energy lost
+  double elastic_J = 0;                // elastic strain energy stored in the soil (all materials)
+  double soil_motion_J = 0;            // kinetic + gravitational energy of the soil
+  double viscous_heat_J = 0;           // artificial-viscosity heat (all materials)
+  double radiated_J = 0;               // out through the non-reflecting boundaries
+  double damping_J = 0;                // taken by the damping of the rest phase
+  double wall_friction_J = 0;          // taken by the fixed walls' friction
+  double contact_J = 0;                // contact damping, friction and stored penalty energy
+  double artificial_stress_J = 0;      // work of the artificial stress (numerical; > 0: fed in)
+  double returned_J = 0;               // elastic energy returned to the pounder (its rebounds' kinetic energy)
+  double residual_J = 0;               // energy_in + artificial stress work - every sink (plastic work included)
+  std::vector<double> plastic_J;       // per deck material: internal - elastic - viscous heat
+  // simulated time of the impact stage
+  double contact_time_s = 0, flight_time_s = 0, rest_time_s = 0;
   double wall_s = 0;                   // wall time of this blow's stages
 };
+
+// The scalar columns of BlowRecord in blows.csv order (the per-material plastic work
+// follows as plastic_<material>_J, then wall_s): one list for the table, the checkpoint
+// and the loop's per-blow quantities.
+struct BlowColumn {
+  const char* name;
+  double BlowRecord::*field;
+};
+const std::vector<BlowColumn>& blow_columns();
 
 struct ColumnRow {
   double depth_m;     // below the original ground level, centre of the band
@@ -92,6 +124,9 @@ class DropSequence {
   void run_stage(int k, const std::function<bool()>& keep_going, bool& stopped);
   void begin_impact(const Stage& s);
   bool impact_step();       // false when the stage is done
+  void end_impact(BlowRecord& rec);
+  double crater_floor() const;
+  std::vector<double> energy_state() const;  // what the blow's energy account differences
   void backfill(const Stage& s);
   void end_stage(int k);
   void record(bool force);  // tracer, pounder and energy rows
@@ -116,6 +151,11 @@ class DropSequence {
   bool in_stage_ = false;
   double stage_t0_ = 0, rest_since_ = -1, z_start_ = 0, peak_dec_ = 0;
   int phase_ = 0;            // impact: 0 moving, 1 damped rest
+  // impact: contact tracking (see impact_step)
+  double v_in_ = 0, up_max_ = 0, out_since_ = -1, pending_return_ = 0, deepest_z_ = 1e300;
+  double contacts_ = 0, first_rebound_open_ = 1, returned_ = 0, in_contact_ = 0;
+  double contact_time_ = 0, flight_time_ = 0;
+  std::vector<double> energy0_;  // energy_state() at the placement of the pounder
   double stage_wall_ = 0;    // wall seconds of the current blow so far
   std::vector<BlowRecord> blows_;
   std::vector<int> tracer_index_;

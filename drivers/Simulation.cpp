@@ -58,12 +58,14 @@ Simulation::Simulation(const Config& config) : config_(config) {
       return;
     }
     planes.plane[planes.count++] = MirrorPlane{axis, w.position, side, w.type == WallType::Fixed ? 1 : 0};
+    if (w.type == WallType::Fixed) fixed_walls_ = true;
   };
   add_wall(config_.bottom, 1, +1);
   add_wall(config_.top, 1, -1);
   add_wall(config_.outer, 0, -1);
 
   build_materials();
+  ledger_.heat_J.assign(materials_host_.size(), 0.0);
   build_particles();
   hold_boundary_stress();  // the non-reflecting boundaries' particles (zero traction yet)
   refresh_neighbours(true);
@@ -329,8 +331,13 @@ void Simulation::refresh_neighbours(bool force) {
 
 void Simulation::compute_acceleration() {
   Particles& P = particles_;
-  Acceleration f{P.x, P.v, P.a, P.a_ext, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
-                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, P.hoop_factor, materials_, sph_, fab_table_};
+  for (ViewN<double, 2>* s : {&a_wall_, &a_friction_, &a_boundary_, &a_art_})
+    if (static_cast<int>(s->extent(0)) < P.capacity) {
+      *s = ViewN<double, 2>("tamp::acceleration_part", P.capacity);
+    }
+  Acceleration f{P.x, P.v, P.a, P.a_ext, a_wall_, a_art_, P.flags, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
+                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, P.hoop_factor, materials_, sph_, fab_table_,
+                 fixed_walls_ ? 1 : 0};
   Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
   profile_mark(&StepProfile::sph);
   if (fem_ && tie_.count > 0) {  // the interface traction from the stresses of both sides
@@ -346,8 +353,14 @@ void Simulation::compute_acceleration() {
   }
   if (non_reflecting_.count > 0)
     Kokkos::parallel_for("tamp::non_reflecting", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                         NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.x_hold, P.rho, P.material, P.flags,
-                                               materials_, non_reflecting_, config_.sph.spacing});
+                         NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.x_hold, a_boundary_, P.rho, P.material,
+                                               P.flags, materials_, non_reflecting_, config_.sph.spacing});
+  if (fixed_walls_) {
+    const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
+    Kokkos::parallel_for("tamp::wall_friction", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                         WallFriction{P.x, P.v, P.a, a_wall_, a_friction_, P.rho, P.material, P.flags, materials_,
+                                      ghosts_.planes, config_.sph.spacing, dt});
+  }
   if (body_.active) apply_contact();
 }
 
@@ -394,7 +407,7 @@ void Simulation::place_body(double r0, double z0, double v_r, double v_z) {
   body_.v_r = v_r; body_.v_z = v_z;
   body_.a_r = body_.a_z = 0.0;
   compute_acceleration();  // the contact forces (and body acceleration) of the new position
-  contact_power_ = body_.contact.power;
+  damp_back_ = 0.0;        // from the full-step velocities
 }
 
 double Simulation::add_particles(const std::vector<NewParticle>& list) {
@@ -455,6 +468,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   rebuild_lists();
   update_pair_stress();
   compute_acceleration();
+  damp_back_ = 0.0;  // from the full-step velocities
   return added;
 }
 
@@ -511,6 +525,7 @@ void Simulation::step(double dt_override) {
   const policy reals(0, P.n_real);
 
   Kick kick{P.v, P.a, P.v_prescribed, P.internal_energy, P.du_visc, P.flags, 0.5 * dt};
+  account_half_kick(dt, 0.25 * dt);  // the first half kick, with the accelerations of x^n
   Kokkos::parallel_for("tamp::kick", reals, kick);
   integrate_body_half(0.5 * dt);
   if (body_.active) {
@@ -560,17 +575,11 @@ void Simulation::step(double dt_override) {
   }
 
   compute_acceleration();
+  damp_back_ = 0.5 * dt;  // the damping above used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
   Kokkos::parallel_for("tamp::kick", reals, kick);
   integrate_body_half(0.5 * dt);
   profile_mark(&StepProfile::sph);
-  if (body_.active) {
-    // trapezoidal rule on the contact power, with the full-step velocities
-    const double power = contact_power(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
-    contact_energy_ -= 0.5 * dt * (contact_power_ + power);
-    contact_power_ = power;
-  } else {
-    contact_power_ = 0.0;
-  }
+  account_half_kick(dt, -0.25 * dt);  // the second half kick
   profile_mark(&StepProfile::other);
   if (profiling_) ++profile_.steps;
   time_ += dt;
@@ -597,6 +606,45 @@ void Simulation::advance_to(double end_time, const std::function<bool()>& on_ste
 }
 
 Energies Simulation::energies() const { return energy_sums(particles_, config_.gravity); }
+
+void Simulation::account_half_kick(double dt, double shift) {
+  const Particles& P = particles_;
+  const unsigned count = 5 + static_cast<unsigned>(materials_host_.size());
+  std::vector<double> p(count, 0.0);
+  const bool contact = body_.active && contact_force_.extent(0) > 0;
+  const double ur = body_.kinematic ? body_.v_r : body_.v_r + shift * body_.a_r;
+  const double uz = body_.kinematic ? body_.v_z : body_.v_z + shift * body_.a_z;
+  EnergyFluxes f{count, P.v, P.a, a_boundary_, a_friction_, contact_force_, a_art_, P.mass, P.du_visc, P.material, sph_.damping,
+                 shift, damp_back_, ur, uz, non_reflecting_.count > 0 ? 1 : 0, fixed_walls_ ? 1 : 0, contact ? 1 : 0, sph_.art_eps > 0 ? 1 : 0};
+  Kokkos::parallel_reduce("tamp::energy::fluxes", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
+                          Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(p.data(), count));
+  const double h = 0.5 * dt;  // the half kick
+  ledger_.damping_J += h * p[0];
+  ledger_.boundary_J += h * p[1];
+  ledger_.wall_friction_J += h * p[2];
+  contact_energy_ -= h * p[3];
+  ledger_.artificial_stress_J += h * p[4];
+  for (size_t k = 0; k < ledger_.heat_J.size(); ++k) ledger_.heat_J[k] += h * p[5 + k];
+}
+
+std::vector<MaterialEnergy> Simulation::material_energies() const {
+  const Particles& P = particles_;
+  const size_t nm = materials_host_.size();
+  const unsigned count = 4 * static_cast<unsigned>(nm);
+  std::vector<double> sums(count, 0.0);
+  MaterialEnergies f{count, P.x, P.v, P.mass, P.rho, P.internal_energy, P.sigma, P.material, materials_,
+                     config_.gravity};
+  Kokkos::parallel_reduce("tamp::energy::materials", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
+                          Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(sums.data(), count));
+  std::vector<MaterialEnergy> out(nm);
+  for (size_t k = 0; k < nm; ++k) out[k] = {sums[4 * k], sums[4 * k + 1], sums[4 * k + 2], sums[4 * k + 3]};
+  return out;
+}
+
+double Simulation::accounted_energy() const {
+  return energies().total() + body_energy() + contact_energy() - ledger_.damping_J - ledger_.boundary_J -
+         ledger_.wall_friction_J - ledger_.artificial_stress_J;
+}
 
 namespace {
 // Horizontal layers (from the blocks) for the geostatic stress kernel; at namespace scope
@@ -791,8 +839,20 @@ Checkpoint Simulation::save_state() {
   c.scalars["body_a_r"] = body_.a_r;
   c.scalars["body_a_z"] = body_.a_z;
   c.scalars["contact_energy"] = contact_energy_;
-  c.scalars["contact_power"] = contact_power_;
+  c.scalars["damp_back"] = damp_back_;
+  // the parts of the stored accelerations that the energy account of the next half kick reads
+  const std::pair<const char*, ViewN<double, 2>*> parts[] = {
+      {"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_}, {"contact_force", &contact_force_}};
+  for (const auto& [name, view] : parts)
+    if (static_cast<int>(view->extent(0)) >= n) put_rows(*view, n, c.reals[name]);
   c.scalars["last_dt"] = dt_;
+  c.scalars["ledger_damping"] = ledger_.damping_J;
+  c.scalars["ledger_boundary"] = ledger_.boundary_J;
+  c.scalars["ledger_wall_friction"] = ledger_.wall_friction_J;
+  c.scalars["ledger_artificial_stress"] = ledger_.artificial_stress_J;
+  c.reals["ledger_heat"].values = ledger_.heat_J;
+  c.reals["ledger_heat"].width = 1;
+
   if (fem_) {  // the tied elements: node motion, element state, the held boundary forces
     const fem::FemMesh& m = fem_->mesh();
     put_rows(m.x, m.n_nodes, c.reals["fem_x"]);
@@ -880,8 +940,24 @@ void Simulation::load_state(const Checkpoint& c) {
   body_.a_r = optional("body_a_r", 0.0);
   body_.a_z = optional("body_a_z", 0.0);
   contact_energy_ = optional("contact_energy", 0.0);
-  contact_power_ = optional("contact_power", 0.0);
+  damp_back_ = optional("damp_back", 0.0);
+  {
+    const std::pair<const char*, ViewN<double, 2>*> parts[] = {
+        {"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_}, {"contact_force", &contact_force_}};
+    for (const auto& [name, view] : parts) {
+      if (static_cast<int>(view->extent(0)) < P.capacity) *view = ViewN<double, 2>("tamp::acceleration_part", P.capacity);
+      if (c.reals.count(name)) get_rows(real(name), name, *view, n_new);
+      else Kokkos::deep_copy(*view, 0.0);
+    }
+  }
   dt_ = optional("last_dt", 0.0);
+  ledger_.damping_J = optional("ledger_damping", 0.0);
+  ledger_.boundary_J = optional("ledger_boundary", 0.0);
+  ledger_.wall_friction_J = optional("ledger_wall_friction", 0.0);
+  ledger_.artificial_stress_J = optional("ledger_artificial_stress", 0.0);
+  if (c.reals.count("ledger_heat") && c.reals.at("ledger_heat").values.size() == ledger_.heat_J.size())
+    ledger_.heat_J = c.reals.at("ledger_heat").values;
+
   refresh_planar_mass();
   if (fem_) {
     if (!c.reals.count("fem_x")) throw std::invalid_argument("checkpoint has no element state; this deck ties elements ([fem])");

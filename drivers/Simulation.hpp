@@ -11,12 +11,14 @@
 #include "core/Output.hpp"
 #include "core/Particles.hpp"
 #include "drivers/FemModel.hpp"
+#include "kernels/EnergyAccount.hpp"
 #include "kernels/Integrate.hpp"
 #include "kernels/Mirror.hpp"
 #include "kernels/NeighbourList.hpp"
 #include "kernels/RigidContact.hpp"
 #include "kernels/SphSolid.hpp"
 #include "kernels/Tie.hpp"
+#include "kernels/WallFriction.hpp"
 
 namespace tamp {
 
@@ -55,6 +57,23 @@ struct StepProfile {
   long steps = 0;
 };
 
+// Work done on the real particles since the start (J; < 0: energy taken out of them) by the
+// forces outside the closed SPH system, summed kick by kick (kernels/EnergyAccount.hpp).
+// heat_J[k] is the artificial-viscosity heat of material k, already part of the internal
+// energy. (The contact's share is Simulation::contact_energy.)
+struct EnergyLedger {
+  double damping_J = 0;        // mass-proportional damping (rest and settling phases)
+  double boundary_J = 0;       // non-reflecting boundaries: radiated (dashpots) + springs
+  double wall_friction_J = 0;  // friction of the fixed walls
+  double artificial_stress_J = 0;  // the artificial stress (a numerical force inside the soil)
+  std::vector<double> heat_J;  // per material
+};
+
+// Energies of the real particles of one material, J (kernels/EnergyAccount.hpp).
+struct MaterialEnergy {
+  double kinetic = 0, internal = 0, potential = 0, elastic = 0;
+};
+
 // Thrown when the run cannot go on (NaN, collapsing time step): the message says what and where.
 struct RunFailure : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -86,6 +105,14 @@ class Simulation {
   const std::vector<MaterialParams>& materials() const { return materials_host_; }
 
   Energies energies() const;
+  // Per deck material: kinetic, internal, gravitational and elastic strain energy.
+  std::vector<MaterialEnergy> material_energies() const;
+  const EnergyLedger& ledger() const { return ledger_; }
+  // The energy of the whole model, which stays constant up to time-integration error:
+  // particles (kinetic + internal + potential) + body + contact, minus the work the
+  // damping, the non-reflecting boundaries, the wall friction and the artificial stress did
+  // on the particles.
+  double accounted_energy() const;
 
   // The rigid body: set its shape and mass once, then place / remove it.
   void set_rigid_body(const RigidProfile& profile, double mass, bool free_r = false, bool free_z = true);
@@ -178,6 +205,13 @@ class Simulation {
   Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
   View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
   ViewN<double, 2> contact_force_;  // per particle ring, N
+  // Parts of the acceleration kept apart for the wall friction and the energy account
+  ViewN<double, 2> a_wall_, a_friction_, a_boundary_, a_art_;
+  bool fixed_walls_ = false;  // a fixed (rough) wall: WallFriction runs
+  EnergyLedger ledger_;
+  double damp_back_ = 0;  // half the step of the last acceleration (its damping used v - damp_back a)
+  // The energy account of one half kick of length dt/2 with mid-kick velocities v + shift a.
+  void account_half_kick(double dt, double shift);
   bool profiling_ = false;
   StepProfile profile_;
   double profile_clock_ = 0;
@@ -193,7 +227,7 @@ class Simulation {
   void sync_tie_stress();
   RigidBody body_;
   ContactLaw contact_law_;
-  double contact_energy_ = 0, contact_power_ = 0;
+  double contact_energy_ = 0;
   void apply_contact();
   void integrate_body_half(double dt_half);
   double skin_ = 0;

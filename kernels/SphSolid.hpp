@@ -147,10 +147,14 @@ struct StrainRateAndStress {
 // Loop B: acceleration from the stress divergence (symmetric SPH form), artificial
 // stress, Monaghan viscosity, hoop terms, gravity, damping and external accelerations;
 // and the rate of viscous heating (the energy-conjugate of the viscous pair force).
-// The artificial stress is a numerical stabiliser whose work is not tracked.
+// The artificial stress is a numerical stabiliser with no stored energy: its part of the
+// acceleration is written apart (a_art) so that the energy account can sum its work.
 // Writes only particle a.
 struct Acceleration {
   ViewN<double, 2> x, v, a, a_ext;
+  ViewN<double, 2> a_wall;    // out: the part of a from fixed-wall ghosts (if fixed_walls)
+  ViewN<double, 2> a_art;     // out: the artificial stress's part of a (if art_eps > 0)
+  View1<int> flags;
   View1<double> mass, rho, du_visc;
   ViewN<double, 4> sigma;
   ViewN<double, 3> pair_stress, art_stress;
@@ -161,6 +165,7 @@ struct Acceleration {
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
   Kokkos::View<const double*, MemSpace> fab_table;  // (W(q)/W(dp))^n tabulated, see below
+  int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
 
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     const double xa = x(i, 0), za = x(i, 1);
@@ -172,7 +177,7 @@ struct Acceleration {
     const double Ra_rr = art_stress(i, 0), Ra_zz = art_stress(i, 1), Ra_rz = art_stress(i, 2);
     const bool Ra_on = p.art_eps > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = materials(material(i)).wave_speed();
-    double ar = 0, az = 0, heat = 0;
+    double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
       const double f = pair_f(k);
       if (f == 0.0) continue;
@@ -197,9 +202,14 @@ struct Acceleration {
         const int it = u < nt ? static_cast<int>(u) : nt - 1;
         const double t = u - it;
         const double fab = (1.0 - t) * fab_table(it) + t * fab_table(it + 1);
-        Trr += ring * fab * (Ra_rr + art_stress(b, 0));
-        Tzz += ring * fab * (Ra_zz + art_stress(b, 1));
-        Trz += ring * fab * (Ra_rz + art_stress(b, 2));
+        const double Arr = ring * fab * (Ra_rr + art_stress(b, 0));
+        const double Azz = ring * fab * (Ra_zz + art_stress(b, 1));
+        const double Arz = ring * fab * (Ra_rz + art_stress(b, 2));
+        Trr += Arr;
+        Tzz += Azz;
+        Trz += Arz;
+        sr += Arr * gr + Arz * gz;
+        sz += Arz * gr + Azz * gz;
       }
       const double dvr = vra - v(b, 0), dvz = vza - v(b, 1);
       const double vdotx = dvr * dr + dvz * dz;
@@ -215,6 +225,18 @@ struct Acceleration {
       }
       ar += Trr * gr + Trz * gz;
       az += Trz * gr + Tzz * gz;
+      if (fixed_walls && (flags(b) & FLAG_FIXED_WALL_GHOST)) {
+        wr += Trr * gr + Trz * gz;
+        wz += Trz * gr + Tzz * gz;
+      }
+    }
+    if (fixed_walls) {
+      a_wall(i, 0) = wr;
+      a_wall(i, 1) = wz;
+    }
+    if (p.art_eps > 0) {
+      a_art(i, 0) = sr;
+      a_art(i, 1) = sz;
     }
     ar -= sigma(i, 2) * hoop_factor(i) / (rhoa * r_reg);
     az -= p.gravity;
@@ -270,6 +292,7 @@ struct PairStress {
 // particle moves, so a held particle pushed past the plane is still pulled back.
 struct NonReflectingBoundary {
   ViewN<double, 2> x, v, a, traction0, x_hold;
+  ViewN<double, 2> a_boundary;  // out: the boundary's part of a (energy account)
   View1<double> rho;
   View1<int> material, flags;
   Kokkos::View<const MaterialParams*, MemSpace> materials;
@@ -277,6 +300,8 @@ struct NonReflectingBoundary {
   double dp;
 
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    a_boundary(i, 0) = 0.0;
+    a_boundary(i, 1) = 0.0;
     for (int k = 0; k < planes.count; ++k) {
       if (!(flags(i) & (FLAG_HELD_BOUNDARY << k))) continue;
       const MirrorPlane& pl = planes.plane[k];
@@ -288,8 +313,12 @@ struct NonReflectingBoundary {
       const int n = pl.axis, t = 1 - pl.axis;
       const double ratio = pl.axis == 0 ? pl.position / math::max(x(i, 0), 1e-12) : 1.0;
       const double k_a = ratio / (rho(i) * dp);
-      a(i, n) += k_a * (traction0(i, n) - rho(i) * cp * v(i, n) - Kn * (x(i, n) - x_hold(i, n)));
-      a(i, t) += k_a * (traction0(i, t) - rho(i) * cs * v(i, t) - Kt * (x(i, t) - x_hold(i, t)));
+      const double an = k_a * (traction0(i, n) - rho(i) * cp * v(i, n) - Kn * (x(i, n) - x_hold(i, n)));
+      const double at = k_a * (traction0(i, t) - rho(i) * cs * v(i, t) - Kt * (x(i, t) - x_hold(i, t)));
+      a(i, n) += an;
+      a(i, t) += at;
+      a_boundary(i, n) += an;
+      a_boundary(i, t) += at;
     }
   }
 };

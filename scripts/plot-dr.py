@@ -61,7 +61,11 @@ images = []
 if blows is not None:
     b = blows["blow"]
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(b, 1e3 * blows["crater_depth_m"], "o-", label="crater depth after the blow")
+    ax.plot(b, 1e3 * blows["crater_depth_m"], "o-", label="crater depth at rest in contact")
+    if "deepest_m" in blows:
+        ax.plot(b, 1e3 * blows["deepest_m"], "v:", label="deepest point of the blow")
+    if "crater_floor_m" in blows:
+        ax.plot(b, 1e3 * blows["crater_floor_m"], "x", label="crater floor after extraction")
     ax.plot(b, 1e3 * blows["penetration_m"], "s--", label="penetration of the blow")
     for i, k in enumerate(sorted(x for x in backfill_after if x <= b.max())):
         ax.axvline(k, color="0.6", ls=":", lw=1, label="backfill after this blow" if i == 0 else None)
@@ -70,6 +74,33 @@ if blows is not None:
     ax.set_title(f"{deck['run']['name']}: crater depth (below original ground) and penetration")
     fig.tight_layout(); fig.savefig(P("crater-depths.png"), dpi=120); plt.close(fig)
     images.append(("Crater depth and penetration per blow", "crater-depths.png"))
+
+# 1b. Energy account per blow: where the energy the pounder brought went -------------------
+if blows is not None and "energy_in_J" in blows:
+    b = blows["blow"]
+    e_in = blows["energy_in_J"]
+    parts = [(k[len("plastic_"):-2] + " plastic work", blows[k]) for k in blows if k.startswith("plastic_")]
+    parts += [("elastic (stored)", blows["elastic_J"]), ("artificial viscosity heat", blows["viscous_heat_J"]),
+              ("contact (damping, friction)", blows["contact_J"]), ("radiated (boundary)", blows["radiated_J"]),
+              ("damping (rest phase)", blows["damping_J"]), ("wall friction", blows["wall_friction_J"]),
+              ("soil kinetic + potential", blows["soil_motion_J"])]
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    bottom_pos, bottom_neg = np.zeros_like(e_in), np.zeros_like(e_in)
+    for name, v in parts:
+        f = 100 * v / e_in
+        base = np.where(f >= 0, bottom_pos, bottom_neg)
+        ax.bar(b, f, bottom=base, label=name, width=0.8)
+        bottom_pos += np.where(f >= 0, f, 0)
+        bottom_neg += np.where(f < 0, f, 0)
+    ax.set_ylabel("% of the energy brought"); ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_title(f"{deck['run']['name']}: energy account of each blow (impact stage)")
+    ax2.bar(b, 100 * blows["residual_J"] / e_in, color="k", width=0.8)
+    ax2.axhline(2, color="r", ls=":", lw=1); ax2.axhline(-2, color="r", ls=":", lw=1)
+    ax2.set_ylabel("residual, %"); ax2.set_xlabel("blow"); ax2.grid(alpha=0.3)
+    ax2.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    fig.tight_layout(); fig.savefig(P("energy-account.png"), dpi=120); plt.close(fig)
+    images.append(("Energy account per blow (residual below; +-2 % dotted)", "energy-account.png"))
 
 # 2. Tracers: vertical displacement against time (paper Figs. 8 and 10) ---------------------
 names = [k[:-5] for k in (tracers or {}) if k.endswith("_dz_m")]
@@ -194,15 +225,28 @@ L += ["| " + " | ".join(row) + " |" for row in rows]
 L += ["", "The laboratory crater depths after each blow (paper Fig. 2) are not tabulated, "
       "so they are not compared here.", ""]
 if blows is not None:
-    L += ["## Per blow", "", "| blow | H, m | crater depth, mm | penetration, mm | "
-          "peak deceleration, m/s2 | uplift, mm | aggregate added, kg | backfill after |",
-          "|---|---|---|---|---|---|---|---|"]
+    has = "deepest_m" in blows
+    L += ["## Per blow", "", "| blow | H, m | crater depth at rest, mm | deepest, mm | floor after extraction, mm | "
+          "penetration, mm | contacts | restitution | peak deceleration, m/s2 | uplift, mm | aggregate added, kg | "
+          "energy in, J | energy residual, % | backfill after |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    g = lambda k, i, s=1e3, d=1: f"{s * blows[k][i]:.{d}f}" if k in blows else "n/a"
     for i in range(len(blows["blow"])):
         k = int(blows["blow"][i])
+        res = (f"{100 * blows['residual_J'][i] / blows['energy_in_J'][i]:+.2f}" if "residual_J" in blows else "n/a")
         L.append(f"| {k} | {blows['drop_height_m'][i]:.2f} | {1e3 * blows['crater_depth_m'][i]:.1f} | "
-                 f"{1e3 * blows['penetration_m'][i]:.1f} | {blows['peak_deceleration_m_s2'][i]:.0f} | "
+                 f"{g('deepest_m', i)} | {g('crater_floor_m', i)} | "
+                 f"{1e3 * blows['penetration_m'][i]:.1f} | {g('contacts', i, 1, 0)} | {g('restitution', i, 1, 3)} | "
+                 f"{blows['peak_deceleration_m_s2'][i]:.0f} | "
                  f"{1e3 * blows['uplift_m'][i]:.1f} | {blows['aggregate_added_kg'][i]:.2f} | "
-                 f"{'yes' if k in backfill_after else ''} |")
+                 f"{g('energy_in_J', i, 1, 1)} | {res} | {'yes' if k in backfill_after else ''} |")
+    if has and "rest_in_contact" in blows and (blows["rest_in_contact"] < 1).any():
+        bad = [int(x) for x, r in zip(blows["blow"], blows["rest_in_contact"]) if r < 1]
+        L += ["", f"Blows {bad} did not come to rest in contact within max_impact_time (recorded as they stood)."]
+    if "residual_J" in blows:
+        over = [int(x) for x, r, e in zip(blows["blow"], blows["residual_J"], blows["energy_in_J"]) if abs(r) > 0.02 * e]
+        L += ["", "Energy residual above 2 % of the energy brought: " + (f"blows {over}" if over else "none") +
+              " (docs/drop-sequence.md, Energy account)."]
     L.append("")
 if notes:
     L += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]

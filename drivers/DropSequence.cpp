@@ -31,7 +31,8 @@ const char* kind_name(StageKind k) {
   }
 }
 
-std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out);
+std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out,
+                                 int min_neighbours = 3);
 
 HostParticles host_particles(Simulation& sim) {
   const ParticleSnapshot s = sim.snapshot();
@@ -159,13 +160,16 @@ double DropSequence::surface_under_pounder() const {
 }
 
 // Crater floor after extraction, m below the original ground: the mean top of the
-// material (any, aggregate included; splashed single grains excluded, see soil_surface)
-// in the radial columns of width dp under the pounder's base (r < base_diameter / 2).
+// material (any, aggregate included) in the radial columns of width dp under the pounder's
+// base (r < base_diameter / 2). Only particles with no neighbour within 1.5 dp are left
+// out: the loose aggregate grains on the floor, with fewer than the 3 neighbours the
+// uplift's surface asks for, are what the pounder rested on (lab run, blow 7: the 3-neighbour
+// rule put the floor 34 mm below the pounder's base).
 double DropSequence::crater_floor() const {
   const double dp = cfg_.sph.spacing;
   const HostParticles hp = host_particles(sim_);
   const double rb = 0.5 * cfg_.pounder.base_diameter;
-  const std::vector<double> top = soil_surface(hp, -1, dp, rb + dp);
+  const std::vector<double> top = soil_surface(hp, -1, dp, rb + dp, 1);
   double sum = 0;
   int n = 0;
   for (size_t k = 0; k < top.size(); ++k)
@@ -630,10 +634,12 @@ bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) 
 }
 
 namespace {
-// Top of the soil (aggregate excluded) in radial columns of width dp: the highest particle
-// centre + dp/2 among the particles with at least 3 soil neighbours within 1.5 dp, so that
-// particles splashed above the crater rim (single or in short chains) do not count as ground.
-std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out) {
+// Top of the soil (skip_material excluded) in radial columns of width dp: the highest particle
+// centre + dp/2 among the particles with at least min_neighbours neighbours within 1.5 dp, so
+// that particles splashed above the crater rim (single or, with 3, in short chains) do not
+// count as ground.
+std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out,
+                                 int min_neighbours) {
   const int nb = static_cast<int>(std::ceil(r_out / dp)) + 2;
   std::vector<double> top(nb, -1e300);
   const double cell = 1.5 * dp;
@@ -653,7 +659,7 @@ std::vector<double> soil_surface(const HostParticles& hp, int skip_material, dou
             if (j != i && dr * dr + dz * dz < cell * cell) ++count;
           }
         }
-      if (count < 3) continue;
+      if (count < min_neighbours) continue;
       const int k = std::min(nb - 1, static_cast<int>(hp.r[i] / dp));
       top[k] = std::max(top[k], hp.z[i] + 0.5 * dp);
     }

@@ -146,10 +146,8 @@ TEST_CASE("Contact: pounder dropped onto an elastic layer, energy balance closes
   // Potential + kinetic + strain (and viscous heat) of the particles, kinetic + potential
   // of the pounder, and the energy taken by the contact (penalty springs, friction,
   // contact damping) must stay constant; tolerance 2 % of the blow's kinetic energy
-  // (issue). Roller side and roller base: no energy leaves the model. (A fixed, no-slip
-  // base is not used here: its mirror particles flip the tangential velocity but not the
-  // matching stress parity, so that wall does spurious work; with it this test gains
-  // ~40 J in 0.05 s and goes unstable without viscosity. Recorded in docs/contact.md.)
+  // (issue). Roller side and roller base: no energy leaves the model. (The same drop on a
+  // fixed base, whose friction takes energy out, is in test_blow_physics.cpp.)
   Config cfg = column_config(0.3, 0.2, 0.01);
   cfg.bottom = {WallType::Roller, 0.0};
   cfg.materials = {lab::clay("elastic")};

@@ -247,9 +247,10 @@ bool DropSequence::impact_step() {
       v_in_ = std::fabs(b.v_z);
       contacts_ = 1;
     } else if (out_since_ >= 0 && sim_.time() - out_since_ >= min_flight) {
-      // landing after a flight: a new contact; the first rebound is over
+      // landing after a flight: a new contact; the first rebound is over once the pounder
+      // has moved up (a first touch of a loose grain that did not turn it is no rebound)
       contacts_ += 1;
-      first_rebound_open_ = 0;
+      if (up_max_ > 0) first_rebound_open_ = 0;
     }
     out_since_ = -1;
     in_contact_ = 1;

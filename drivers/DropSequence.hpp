@@ -2,8 +2,10 @@
 // the deck's [schedule] (docs/drop-sequence.md):
 //   relax            damped relaxation of the initial (geostatic) state
 //   impact  (blow)   the pounder placed just above the crater floor with the speed of free
-//                    fall from the drop height; undamped until the pounder is at rest
-//                    (|v| < rest_speed for rest_hold), then rest_time of damped settling
+//                    fall from the drop height; undamped, through its rebounds, until it is
+//                    at rest in contact (touching, |v| < rest_speed, contact force within
+//                    rest_force_tolerance of its weight, for rest_hold) or max_impact_time,
+//                    then rest_time of damped settling
 //   extract (blow)   the pounder lifted out; extract_time of damped settling
 //   backfill(blow)   aggregate particles created in the crater without overlap (up to the
 //                    ground level, or a given mass), then settle_time of damped settling

@@ -20,4 +20,17 @@ inline MaterialSpec clay(const std::string& model = "tresca") {
   return m;
 }
 
+// Crushed basalt 5-25 mm, the backfill: cohesionless Mohr-Coulomb, phi = 47 deg, psi = 0,
+// G = 6.86 MPa, nu = 0.2, unit weight 18 kN/m3 (examples/lab-test.toml).
+inline MaterialSpec aggregate() {
+  MaterialSpec m;
+  m.name = "aggregate";
+  m.model = "mohr-coulomb";
+  m.density = 18.0e3 / g;
+  m.shear_modulus = 6.86e6;
+  m.poisson_ratio = 0.2;
+  m.phi_deg = 47.0;
+  return m;
+}
+
 }  // namespace tamp::lab

@@ -607,6 +607,11 @@ void Simulation::advance_to(double end_time, const std::function<bool()>& on_ste
 
 Energies Simulation::energies() const { return energy_sums(particles_, config_.gravity); }
 
+std::vector<std::pair<const char*, ViewN<double, 2>*>> Simulation::acceleration_parts() {
+  return {{"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_},
+          {"contact_force", &contact_force_}};
+}
+
 void Simulation::account_half_kick(double dt, double shift) {
   const Particles& P = particles_;
   const unsigned count = 5 + static_cast<unsigned>(materials_host_.size());
@@ -841,9 +846,7 @@ Checkpoint Simulation::save_state() {
   c.scalars["contact_energy"] = contact_energy_;
   c.scalars["damp_back"] = damp_back_;
   // the parts of the stored accelerations that the energy account of the next half kick reads
-  const std::pair<const char*, ViewN<double, 2>*> parts[] = {
-      {"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_}, {"contact_force", &contact_force_}};
-  for (const auto& [name, view] : parts)
+  for (const auto& [name, view] : acceleration_parts())
     if (static_cast<int>(view->extent(0)) >= n) put_rows(*view, n, c.reals[name]);
   c.scalars["last_dt"] = dt_;
   c.scalars["ledger_damping"] = ledger_.damping_J;
@@ -942,9 +945,7 @@ void Simulation::load_state(const Checkpoint& c) {
   contact_energy_ = optional("contact_energy", 0.0);
   damp_back_ = optional("damp_back", 0.0);
   {
-    const std::pair<const char*, ViewN<double, 2>*> parts[] = {
-        {"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_}, {"contact_force", &contact_force_}};
-    for (const auto& [name, view] : parts) {
+    for (const auto& [name, view] : acceleration_parts()) {
       if (static_cast<int>(view->extent(0)) < P.capacity) *view = ViewN<double, 2>("tamp::acceleration_part", P.capacity);
       if (c.reals.count(name)) get_rows(real(name), name, *view, n_new);
       else Kokkos::deep_copy(*view, 0.0);

@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 #include "core/Config.hpp"
 #include "core/Material.hpp"
@@ -207,6 +208,8 @@ class Simulation {
   ViewN<double, 2> contact_force_;  // per particle ring, N
   // Parts of the acceleration kept apart for the wall friction and the energy account
   ViewN<double, 2> a_wall_, a_friction_, a_boundary_, a_art_;
+  // The parts the energy account of the next half kick reads, by checkpoint name.
+  std::vector<std::pair<const char*, ViewN<double, 2>*>> acceleration_parts();
   bool fixed_walls_ = false;  // a fixed (rough) wall: WallFriction runs
   EnergyLedger ledger_;
   double damp_back_ = 0;  // half the step of the last acceleration (its damping used v - damp_back a)

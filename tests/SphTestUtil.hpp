@@ -1,6 +1,10 @@
 // Helpers shared by the SPH verification tests: decks built in code, host probes.
 #pragma once
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
+#include <catch2/catch.hpp>
 #include "core/Config.hpp"
 #include "drivers/LabMaterials.hpp"
 #include "drivers/Simulation.hpp"
@@ -49,6 +53,29 @@ inline double wave_energy(const Simulation& sim) {
     e += 0.5 * s.mass[i] * (s.v_r[i] * s.v_r[i] + s.v_z[i] * s.v_z[i]) + w * s.mass[i] / s.density[i];
   }
   return e;
+}
+
+// The rows of a CSV file written by Tamp (numbers only), after its header line; the header
+// cells go to `header` if given.
+inline std::vector<std::vector<double>> read_csv(const std::string& path, std::vector<std::string>* header = nullptr) {
+  std::ifstream in(path);
+  REQUIRE(in.good());
+  std::string line;
+  std::getline(in, line);
+  if (header) {
+    std::stringstream hs(line);
+    std::string h;
+    while (std::getline(hs, h, ',')) header->push_back(h);
+  }
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::stringstream ls(line);
+    std::string cell;
+    std::vector<double> row;
+    while (std::getline(ls, cell, ',')) row.push_back(std::stod(cell));
+    rows.push_back(row);
+  }
+  return rows;
 }
 
 }  // namespace tamp::testing

@@ -33,22 +33,6 @@ std::string fresh_dir(const std::string& name) {
   return p.string();
 }
 
-std::vector<std::vector<double>> read_rows(const std::string& path) {
-  std::ifstream in(path);
-  REQUIRE(in.good());
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::stringstream ls(line);
-    std::string cell;
-    std::vector<double> row;
-    while (std::getline(ls, cell, ',')) row.push_back(std::stod(cell));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 MaterialSpec elastic(const std::string& name, double G, double nu, double unit_weight) {
   MaterialSpec m;
   m.name = name;
@@ -112,7 +96,7 @@ TEST_CASE("Blow: a pounder dropped on a confined elastic layer rebounds, lands a
   const double M = m.p_wave_modulus();
   const double W = cfg.pounder.mass * 9.81;
   const double s_exact = W * H / (M * M_PI * a * a);
-  const auto pounder = read_rows(dir + "/pounder.csv");  // time, blow, base_z, v_z, a_z, force_z
+  const auto pounder = tamp::testing::read_csv(dir + "/pounder.csv");  // time, blow, base_z, v_z, a_z, force_z
   REQUIRE(pounder.size() > 10);
   // first record with a contact force above 1 % of the weight
   size_t first = 0;
@@ -179,14 +163,7 @@ TEST_CASE("Wall: a cohesionless grain pushed along a fixed base stops after v0^2
   // L = v0^2 / (2 g tan phi). Tolerance 5 %: the grain rocks on its mirror image, so the
   // normal support fluctuates about g, and the cap at stick ends the slide within a step.
   Config cfg = column_config(0.6, 0.01, 0.01);
-  MaterialSpec agg;
-  agg.name = "aggregate";
-  agg.model = "mohr-coulomb";
-  agg.density = 18.0e3 / 9.81;
-  agg.shear_modulus = 6.86e6;
-  agg.poisson_ratio = 0.2;
-  agg.phi_deg = 47.0;
-  cfg.materials = {agg};
+  cfg.materials = {tamp::lab::aggregate()};
   cfg.blocks[0].material = "aggregate";
   cfg.blocks[0].r_min = 0.5;
   cfg.blocks[0].r_max = 0.51;
@@ -242,14 +219,7 @@ TEST_CASE("Aggregate: a heap of the poured charge on a rough base slumps to its 
   const double dp = std::getenv("TAMP_HEAP_DP") ? std::atof(std::getenv("TAMP_HEAP_DP")) : 0.01;
   const double R0 = 0.15, beta0 = 60.0 * M_PI / 180.0;
   Config cfg = column_config(0.6, 0.01, dp);
-  MaterialSpec agg;
-  agg.name = "aggregate";
-  agg.model = "mohr-coulomb";
-  agg.density = 18.0e3 / 9.81;
-  agg.shear_modulus = 6.86e6;
-  agg.poisson_ratio = 0.2;
-  agg.phi_deg = 47.0;
-  cfg.materials = {agg};
+  cfg.materials = {tamp::lab::aggregate()};
   cfg.blocks.clear();
   const double H0 = R0 * std::tan(beta0);
   for (int j = 0; (j + 0.5) * dp < H0; ++j) {  // one block per particle row

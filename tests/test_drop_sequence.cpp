@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <sstream>
 
+#include "SphTestUtil.hpp"
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
 #include "drivers/DropSequence.hpp"
@@ -21,6 +22,7 @@ using tamp::ParticleSnapshot;
 using tamp::Simulation;
 using tamp::load_deck;
 using tamp::read_checkpoint_h5;
+using tamp::testing::read_csv;
 namespace fs = std::filesystem;
 
 namespace {
@@ -32,27 +34,6 @@ std::string fresh_dir(const std::string& name) {
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();
-}
-
-std::vector<std::vector<double>> read_csv(const std::string& path, std::vector<std::string>* header = nullptr) {
-  std::ifstream in(path);
-  REQUIRE(in.good());
-  std::string line;
-  std::getline(in, line);
-  if (header) {
-    std::stringstream hs(line);
-    std::string h;
-    while (std::getline(hs, h, ',')) header->push_back(h);
-  }
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::stringstream ls(line);
-    std::string cell;
-    std::vector<double> row;
-    while (std::getline(ls, cell, ',')) row.push_back(std::stod(cell));
-    rows.push_back(row);
-  }
-  return rows;
 }
 
 double json_number(const std::string& path, const std::string& key) {

@@ -115,7 +115,7 @@ inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_q
         iz = iz < 0 ? 0 : (iz >= nz ? nz - 1 : iz);
         const int c = iz * nr + ir;
         cell_of(i) = c;
-        Kokkos::atomic_increment(&cell_count(c));
+        Kokkos::atomic_add(&cell_count(c), 1);  // atomic_increment is deprecated in Kokkos 4
       });
   // 3. exclusive scan of counts -> first slot of each cell (cell_start(ncell) = n_total)
   Kokkos::parallel_scan(

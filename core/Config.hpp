@@ -1,6 +1,7 @@
 // The validated content of an input deck (TOML). Produced by load_deck() in Deck.cpp, or
 // filled in directly by tests and scenarios. SI units throughout.
 #pragma once
+#include <map>
 #include <string>
 #include <vector>
 
@@ -37,7 +38,8 @@ struct SphSpec {
 
 struct MaterialSpec {
   std::string name;
-  std::string model = "elastic";  // "elastic" | "mohr-coulomb" | "tresca"
+  std::string model = "elastic";  // a registered model (models/ModelList.hpp): "elastic",
+                                  // "mohr-coulomb", "tresca", "modified-cam-clay"
   double density = 0;             // kg/m3 (deck gives density or unit_weight)
   double shear_modulus = 0;       // G, Pa
   double poisson_ratio = 0;       // nu, [0, 0.5)
@@ -53,6 +55,8 @@ struct MaterialSpec {
   double reference_strain_rate = 1.0; // 1/s
   double remoulded_ratio = 1.0;   // -, remoulded / intact strength
   double remoulding_strain = 1.0; // -, plastic shear strain at 95 % of the loss
+  // The keys of models that declare no member above (models/MaterialModel.hpp, ModelKey).
+  std::map<std::string, double> params;
 };
 
 struct BlockSpec {

@@ -1,7 +1,10 @@
 // Input decks: TOML -> validated Config (see Deck.hpp for the layout), Config -> TOML.
 #include "core/Format.hpp"
 #include "core/Deck.hpp"
+#include "core/Range.hpp"
+#include "models/MaterialModel.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cerrno>
@@ -138,41 +141,9 @@ std::string join(const std::vector<std::string>& items, const std::string& sep) 
   return out;
 }
 
-// ---------------------------------------------------------------- ranges
+// ---------------------------------------------------------------- ranges (core/Range.hpp)
 
-struct Range {
-  std::optional<double> lo, hi;
-  bool lo_open = false, hi_open = false;
-
-  bool contains(double x) const {
-    if (!std::isfinite(x)) return false;
-    if (lo && (lo_open ? !(x > *lo) : !(x >= *lo))) return false;
-    if (hi && (hi_open ? !(x < *hi) : !(x <= *hi))) return false;
-    return true;
-  }
-  // "0 <= nu < 0.5", "spacing > 0 (m)", "a finite number (m/s)".
-  std::string text(std::string_view name, std::string_view unit) const {
-    std::string s;
-    if (lo && hi)
-      s = fmt_num(*lo) + (lo_open ? " < " : " <= ") + std::string(name) + (hi_open ? " < " : " <= ") +
-          fmt_num(*hi);
-    else if (lo)
-      s = std::string(name) + (lo_open ? " > " : " >= ") + fmt_num(*lo);
-    else if (hi)
-      s = std::string(name) + (hi_open ? " < " : " <= ") + fmt_num(*hi);
-    else
-      s = "a finite number";
-    if (!unit.empty()) s += " (" + std::string(unit) + ")";
-    return s;
-  }
-};
-
-Range any() { return {}; }
-Range gt(double a) { return {a, std::nullopt, true, false}; }
-Range ge(double a) { return {a, std::nullopt, false, false}; }
-Range ge_lt(double a, double b) { return {a, b, false, true}; }
-Range ge_le(double a, double b) { return {a, b, false, false}; }
-Range gt_le(double a, double b) { return {a, b, true, false}; }
+using namespace ranges;
 
 // ---------------------------------------------------------------- error reporting
 
@@ -211,14 +182,13 @@ class Table {
  public:
   Table(const Reporter& rep, const toml::table& t, std::string prefix,
         std::initializer_list<const char*> keys)
+      : Table(rep, t, std::move(prefix), std::vector<std::string>(keys.begin(), keys.end())) {}
+  Table(const Reporter& rep, const toml::table& t, std::string prefix, const std::vector<std::string>& keys)
       : rep_(rep), t_(t), prefix_(std::move(prefix)) {
     for (const auto& [k, v] : t_) {
       bool known = false;
-      for (const char* key : keys) known = known || k.str() == key;
-      if (!known) {
-        std::vector<std::string> names(keys.begin(), keys.end());
-        rep_.bad(path(k.str()), v, "is not a known key", join(names, ", "));
-      }
+      for (const auto& key : keys) known = known || k.str() == key;
+      if (!known) rep_.bad(path(k.str()), v, "is not a known key", join(keys, ", "));
     }
   }
 
@@ -440,7 +410,21 @@ void read_sph(const Table& top, SphSpec& sph) {
   sph.axis_radius_factor = number(t, "axis_radius_factor", sph.axis_radius_factor, gt_le(0, 1), "");
 }
 
-MaterialSpec read_material(const Table& m, const std::vector<MaterialSpec>& earlier) {
+// A material: its name, its model (a registered one, models/ModelList.hpp), then exactly the
+// keys that model declares (models/MaterialModel.hpp), each with its declared range.
+MaterialSpec read_material(const Reporter& rep, const toml::table& tbl, const std::string& prefix,
+                           const std::vector<MaterialSpec>& earlier) {
+  std::vector<std::string> every_key = {"name", "model", "unit_weight"};
+  auto add_key = [](std::vector<std::string>& list, const std::string& k) {
+    if (std::find(list.begin(), list.end(), k) == list.end()) list.push_back(k);
+  };
+  std::vector<std::string> model_names;
+  for (const auto& d : material_models()) {
+    model_names.push_back(d.name);
+    for (const ModelKey* k : keys_of(d)) add_key(every_key, k->key);
+  }
+  const Table m(rep, tbl, prefix, every_key);
+
   MaterialSpec mat;
   mat.name = required_string(m, "name", "a non-empty string, unique among the materials");
   if (mat.name.empty())
@@ -449,8 +433,16 @@ MaterialSpec read_material(const Table& m, const std::vector<MaterialSpec>& earl
     if (earlier[j].name == mat.name)
       m.rep().bad(m.path("name"), *m.find("name"), "is already used by materials[" + std::to_string(j) + "]",
                   "a name unique among the materials");
-  mat.model = choice(m, "model", {"elastic", "mohr-coulomb", "tresca"}, "model", std::nullopt);
-  const bool tresca = mat.model == "tresca";
+  mat.model = choice(m, "model", model_names, "model", std::nullopt);
+  const ModelDescription& d = *find_material_model(mat.model);
+  const std::vector<const ModelKey*> keys = keys_of(d);
+
+  // A key of another model: say which model this one is.
+  std::vector<std::string> own = {"name", "model", "unit_weight"};
+  for (const ModelKey* k : keys) add_key(own, k->key);
+  for (const auto& [k, v] : tbl)
+    if (std::find(own.begin(), own.end(), std::string(k.str())) == own.end())
+      m.rep().bad(m.path(k.str()), v, "is not used by model " + quote(mat.model), join(own, ", "));
 
   const auto density = opt_number(m, "density", gt(0), "kg/m3");
   const auto unit_weight = opt_number(m, "unit_weight", gt(0), "N/m3");
@@ -462,51 +454,19 @@ MaterialSpec read_material(const Table& m, const std::vector<MaterialSpec>& earl
   if (!density && !unit_weight) m.rep().missing(m.path("density"), one_of);
   mat.density = density ? *density : *unit_weight / kUnitWeightGravity;
 
-  mat.shear_modulus = required_number(m, "G", gt(0), "Pa");
-  mat.poisson_ratio = required_number(m, "nu", ge_lt(0, 0.5), "");
-
-  if (tresca) {
-    if (const auto* c = m.find("c"))
-      m.rep().bad(m.path("c"), *c, "is not used by model \"tresca\"",
-                  "Su (undrained shear strength, Pa > 0) instead of c");
-    mat.cohesion = required_number(m, "Su", gt(0), "Pa");
-    for (const char* key : {"phi_deg", "psi_deg"}) {
-      const auto x = opt_number(m, key, ge_lt(0, 90), "deg");
-      if (x && *x != 0)
-        m.rep().out_of_range(m.path(key), *m.find(key),
-                             std::string(key) + " = 0 for model \"tresca\" (or leave it out)");
-    }
-    mat.phi_deg = 0;
-    mat.psi_deg = 0;
-  } else {
-    if (const auto* su = m.find("Su"))
-      m.rep().bad(m.path("Su"), *su, "is only used by model \"tresca\"",
-                  "c (cohesion, Pa >= 0) for model " + quote(mat.model));
-    mat.cohesion = number(m, "c", 0, ge(0), "Pa");
-    mat.phi_deg = number(m, "phi_deg", 0, ge_lt(0, 90), "deg");
-    mat.psi_deg = number(m, "psi_deg", 0, ge(0), "deg");
-    if (mat.psi_deg > mat.phi_deg)
-      m.rep().out_of_range(m.path("psi_deg"), *m.find("psi_deg"),
-                           "0 <= psi_deg <= phi_deg (= " + fmt_num(mat.phi_deg) + ") (deg)");
+  for (const ModelKey* k : keys) {
+    if (k->key == "density") continue;
+    key_value(mat, *k) = k->fallback ? number(m, k->key, *k->fallback, k->range, k->unit)
+                                     : required_number(m, k->key, k->range, k->unit);
   }
-  mat.tension_cutoff = number(m, "tension_cutoff", 0, ge(0), "Pa");
-  // effects (docs/effects.md): only for the plastic models
-  static const char* effect_keys[] = {"crush_pressure", "crush_hardening", "air_voids", "rate_coefficient",
-                                      "reference_strain_rate", "remoulded_ratio", "remoulding_strain"};
-  if (mat.model == "elastic")
-    for (const char* key : effect_keys)
-      if (const auto* n = m.find(key))
-        m.rep().bad(m.path(key), *n, "is an effect of the plastic models", "model \"mohr-coulomb\" or \"tresca\"");
-  mat.crush_pressure = number(m, "crush_pressure", mat.crush_pressure, ge(0), "Pa");
-  mat.crush_hardening = number(m, "crush_hardening", mat.crush_hardening, ge(0), "Pa");
-  mat.air_voids = number(m, "air_voids", mat.air_voids, ge_lt(0, 1), "");
-  if (mat.crush_pressure > 0 && mat.air_voids <= 0)
-    m.rep().bad(m.path("crush_pressure"), *m.find("crush_pressure"), "needs air_voids > 0",
-                "air_voids in (0, 1): the largest compaction strain");
-  mat.rate_coefficient = number(m, "rate_coefficient", mat.rate_coefficient, ge(0), "");
-  mat.reference_strain_rate = number(m, "reference_strain_rate", mat.reference_strain_rate, gt(0), "1/s");
-  mat.remoulded_ratio = number(m, "remoulded_ratio", mat.remoulded_ratio, gt_le(0, 1), "");
-  mat.remoulding_strain = number(m, "remoulding_strain", mat.remoulding_strain, gt(0), "");
+  auto blame = [&](const RuleBreak& b) {
+    if (const auto* n = m.find(b.key)) m.rep().bad(m.path(b.key), *n, b.problem, b.allowed);
+    m.rep().missing(m.path(b.key), b.allowed);
+  };
+  if (d.rule)
+    if (const auto broken = d.rule(mat)) blame(*broken);
+  if (d.effects && mat.crush_pressure > 0 && mat.air_voids <= 0)
+    blame({"crush_pressure", "needs air_voids > 0", "air_voids in (0, 1): the largest compaction strain"});
   return mat;
 }
 
@@ -734,13 +694,8 @@ Config build(const toml::table& root, const std::string& label) {
   read_sph(top, cfg.sph);
 
   const auto mats = table_array(top, "materials");
-  for (std::size_t i = 0; i < mats.size(); ++i) {
-    const Table m(rep, *mats[i], "materials[" + std::to_string(i) + "]",
-                  {"name", "model", "density", "unit_weight", "G", "nu", "c", "Su", "phi_deg",
-                   "psi_deg", "tension_cutoff", "crush_pressure", "crush_hardening", "air_voids",
-                   "rate_coefficient", "reference_strain_rate", "remoulded_ratio", "remoulding_strain"});
-    cfg.materials.push_back(read_material(m, cfg.materials));
-  }
+  for (std::size_t i = 0; i < mats.size(); ++i)
+    cfg.materials.push_back(read_material(rep, *mats[i], "materials[" + std::to_string(i) + "]", cfg.materials));
   const auto blocks = table_array(top, "blocks");
   for (std::size_t i = 0; i < blocks.size(); ++i) {
     const Table b(rep, *blocks[i], "blocks[" + std::to_string(i) + "]", {"material", "r", "z", "velocity"});
@@ -913,27 +868,10 @@ std::string to_toml(const Config& c) {
     o << "\n[[materials]]\n";
     o << "name = " << quote(m.name) << "\n";
     o << "model = " << quote(m.model) << "\n";
-    o << "density = " << fmt_float(m.density) << "  # kg/m3\n";
-    o << "G = " << fmt_float(m.shear_modulus) << "  # Pa\n";
-    o << "nu = " << fmt_float(m.poisson_ratio) << "\n";
-    if (m.model == "tresca") {
-      o << "Su = " << fmt_float(m.cohesion) << "  # Pa\n";
-    } else {
-      o << "c = " << fmt_float(m.cohesion) << "  # Pa\n";
-      o << "phi_deg = " << fmt_float(m.phi_deg) << "\n";
-      o << "psi_deg = " << fmt_float(m.psi_deg) << "\n";
-    }
-    o << "tension_cutoff = " << fmt_float(m.tension_cutoff) << "  # Pa\n";
-    if (m.model != "elastic") {
-      if (m.crush_pressure != 0 || m.air_voids != 0 || m.crush_hardening != 0)
-        o << "crush_pressure = " << fmt_float(m.crush_pressure) << "  # Pa\ncrush_hardening = "
-          << fmt_float(m.crush_hardening) << "  # Pa\nair_voids = " << fmt_float(m.air_voids) << "\n";
-      if (m.rate_coefficient != 0 || m.reference_strain_rate != 1.0)
-        o << "rate_coefficient = " << fmt_float(m.rate_coefficient) << "\nreference_strain_rate = "
-          << fmt_float(m.reference_strain_rate) << "  # 1/s\n";
-      if (m.remoulded_ratio != 1.0 || m.remoulding_strain != 1.0)
-        o << "remoulded_ratio = " << fmt_float(m.remoulded_ratio) << "\nremoulding_strain = "
-          << fmt_float(m.remoulding_strain) << "\n";
+    for (const ModelKey* k : keys_of(material_model(m))) {
+      const double x = key_value(m, *k);
+      if (is_effect_key(k->key) && x == k->fallback.value_or(0.0)) continue;  // keeps decks short
+      o << k->key << " = " << fmt_float(x) << (k->unit.empty() ? "" : "  # " + k->unit) << "\n";
     }
   }
   for (const auto& b : c.blocks) {

@@ -5,6 +5,8 @@
 
 namespace tamp {
 
+// The device update each model runs (its `id`, models/ModelList.hpp). A new model takes
+// the next free number in its own header; models/ModelList.cpp checks they are distinct.
 enum ModelId : int {
   MODEL_ELASTIC = 0,       // linear (hypo-)elastic, Jaumann rate
   MODEL_MOHR_COULOMB = 1,  // elastic-perfectly plastic Mohr-Coulomb; Tresca when phi = 0
@@ -33,6 +35,11 @@ struct MaterialParams {
   double reference_strain_rate = 1; //     gdot_ref, 1/s
   double remoulded_ratio = 1;       // (c) remoulding: delta = c_remoulded / c0 (1 = off)
   double remoulding_strain = 1;     //     eps_95: plastic shear strain at 95 % of the loss
+
+  // Parameters of the other models, each model naming its slots in its own header (e.g.
+  // models/ModifiedCamClay.hpp), so that a new model needs no new member here.
+  static constexpr int kModelSlots = 8;
+  double model_param[kModelSlots] = {0, 0, 0, 0, 0, 0, 0, 0};
 
   KOKKOS_INLINE_FUNCTION double p_wave_modulus() const {
     return bulk_modulus + 4.0 / 3.0 * shear_modulus;

@@ -1,4 +1,5 @@
 #include "drivers/Loop.hpp"
+#include "models/MaterialModel.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -89,33 +90,30 @@ namespace {
 
 double* param_ref(Config& cfg, const std::string& name) {
   const auto dot = name.find('.');
-  const std::string allowed =
-      "<material>.<key> with key G, nu, Su, c, phi_deg, density, crush_pressure, crush_hardening, air_voids, "
-      "rate_coefficient, reference_strain_rate, remoulded_ratio, remoulding_strain; or contact.<key> with key "
-      "static_friction, dynamic_friction, decay";
+  const std::string contact_keys = "contact.<key> with key static_friction, dynamic_friction, decay";
+  auto material_keys = [](const MaterialSpec& m) {
+    std::string s;
+    for (const ModelKey* k : keys_of(material_model(m)))
+      if (k->fittable) s += (s.empty() ? "" : ", ") + k->key;
+    return s;
+  };
+  std::string allowed = contact_keys;
+  for (const auto& m : cfg.materials) allowed += "; " + m.name + ".<key> with key " + material_keys(m);
   if (dot == std::string::npos) throw std::invalid_argument("parameter '" + name + "' is not known; allowed: " + allowed);
   const std::string owner = name.substr(0, dot), key = name.substr(dot + 1);
   if (owner == "contact") {
     if (key == "static_friction") return &cfg.contact.static_friction;
     if (key == "dynamic_friction") return &cfg.contact.dynamic_friction;
     if (key == "decay") return &cfg.contact.decay;
-    throw std::invalid_argument("parameter '" + name + "' is not known; allowed: " + allowed);
+    throw std::invalid_argument("parameter '" + name + "' is not known; allowed: " + contact_keys);
   }
+  // The fittable keys of the material's model (models/MaterialModel.hpp).
   for (auto& m : cfg.materials) {
     if (m.name != owner) continue;
-    if (key == "G") return &m.shear_modulus;
-    if (key == "nu") return &m.poisson_ratio;
-    if (key == "Su" || key == "c") return &m.cohesion;
-    if (key == "phi_deg") return &m.phi_deg;
-    if (key == "density") return &m.density;
-    if (key == "crush_pressure") return &m.crush_pressure;
-    if (key == "crush_hardening") return &m.crush_hardening;
-    if (key == "air_voids") return &m.air_voids;
-    if (key == "rate_coefficient") return &m.rate_coefficient;
-    if (key == "reference_strain_rate") return &m.reference_strain_rate;
-    if (key == "remoulded_ratio") return &m.remoulded_ratio;
-    if (key == "remoulding_strain") return &m.remoulding_strain;
-    throw std::invalid_argument("parameter '" + name + "' is not known; allowed: " + allowed);
+    for (const ModelKey* k : keys_of(material_model(m)))
+      if (k->fittable && k->key == key) return &key_value(m, *k);
+    throw std::invalid_argument("parameter '" + name + "' is not known; allowed: " + owner + ".<key> with key " +
+                                material_keys(m));
   }
   throw std::invalid_argument("parameter '" + name + "': the deck has no material '" + owner + "'");
 }

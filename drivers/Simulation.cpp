@@ -7,26 +7,6 @@
 
 namespace tamp {
 
-MaterialParams make_material(const MaterialSpec& s) {
-  MaterialParams m;
-  m.model = (s.model == "elastic") ? MODEL_ELASTIC : MODEL_MOHR_COULOMB;
-  m.density = s.density;
-  m.shear_modulus = s.shear_modulus;
-  m.bulk_modulus = bulk_from_shear(s.shear_modulus, s.poisson_ratio);
-  m.cohesion = s.cohesion;
-  m.phi = s.phi_deg * pi / 180.0;
-  m.psi = s.psi_deg * pi / 180.0;
-  m.tension_cutoff = s.tension_cutoff;
-  m.crush_pressure = s.crush_pressure;
-  m.crush_hardening = s.crush_hardening;
-  m.air_voids = s.air_voids;
-  m.rate_coefficient = s.rate_coefficient;
-  m.reference_strain_rate = s.reference_strain_rate;
-  m.remoulded_ratio = s.remoulded_ratio;
-  m.remoulding_strain = s.remoulding_strain;
-  return m;
-}
-
 Simulation::Simulation(const Config& config) : config_(config) {
   const double dp = config_.sph.spacing;
   sph_.h = config_.sph.h_factor * dp;

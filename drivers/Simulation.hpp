@@ -20,6 +20,7 @@
 #include "kernels/SphSolid.hpp"
 #include "kernels/Tie.hpp"
 #include "kernels/WallFriction.hpp"
+#include "models/MaterialModel.hpp"
 
 namespace tamp {
 
@@ -237,8 +238,5 @@ class Simulation {
   double time_ = 0, dt_ = 0;
   long steps_ = 0, list_builds_ = 0;
 };
-
-// Material parameters for the kernels from a deck's material entry.
-MaterialParams make_material(const MaterialSpec& spec);
 
 }  // namespace tamp

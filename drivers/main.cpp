@@ -36,6 +36,11 @@ using tamp::RunFailure;
 using tamp::Simulation;
 using tamp::XdmfSeries;
 using tamp::load_deck;
+using tamp::ModelKey;
+using tamp::is_effect_key;
+using tamp::key_value;
+using tamp::keys_of;
+using tamp::material_model;
 using tamp::to_toml;
 using tamp::write_csv;
 using tamp::write_snapshot_h5;
@@ -67,9 +72,13 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
   for (size_t k = 0; k < cfg.materials.size(); ++k) {
     const auto& m = cfg.materials[k];
     const auto& p = sim.materials()[k];
-    os << "  " << m.name << ": " << m.model << ", rho " << m.density << " kg/m3, G " << m.shear_modulus
-       << " Pa, nu " << m.poisson_ratio;
-    if (m.model != "elastic") os << ", c " << m.cohesion << " Pa, phi " << m.phi_deg << " deg";
+    // every key the model declares (models/MaterialModel.hpp), effects only when set
+    os << "  " << m.name << ": " << m.model;
+    for (const ModelKey* k : keys_of(material_model(m))) {
+      const double x = key_value(m, *k);
+      if (is_effect_key(k->key) && x == k->fallback.value_or(0.0)) continue;
+      os << ", " << k->key << " " << x << (k->unit.empty() ? "" : " " + k->unit);
+    }
     os << ", c_p " << fmt("%.1f", p.wave_speed()) << " m/s\n";
   }
   const double dt = sim.stable_dt();

@@ -3,6 +3,7 @@
 // inside Kokkos kernels on every back end. Equations: docs/models.md.
 #pragma once
 #include "core/Material.hpp"
+#include "models/MaterialModel.hpp"
 
 namespace tamp {
 
@@ -34,5 +35,22 @@ KOKKOS_INLINE_FUNCTION void jaumann_rotate(double sigma[4], double w_rz_dt) {
   sigma[ZZ] = szz - d_normal;
   sigma[RZ] = srz + w_rz_dt * (szz - srr);
 }
+
+// The model: no plastic correction after the elastic predictor.
+struct Elastic {
+  static constexpr int id = MODEL_ELASTIC;
+  KOKKOS_INLINE_FUNCTION static int plastic_correction(const MaterialParams&, double[4], const double[4],
+                                                       double&, double&, double) {
+    return 0;
+  }
+  static std::vector<ModelDescription> describe() {
+    ModelDescription d;
+    d.name = "elastic";
+    d.kernel = id;
+    d.summary = "linear (hypo-)elastic, Jaumann stress rate";
+    d.to_params = [](const MaterialSpec&, MaterialParams&) {};
+    return {d};
+  }
+};
 
 }  // namespace tamp

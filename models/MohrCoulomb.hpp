@@ -10,6 +10,8 @@
 // Equations and region definitions: docs/models.md.
 #pragma once
 #include "core/Material.hpp"
+#include "models/Effects.hpp"
+#include "models/MaterialModel.hpp"
 
 namespace tamp {
 
@@ -252,5 +254,72 @@ KOKKOS_INLINE_FUNCTION int mohr_coulomb_return(const MaterialParams& m, double s
   axi_principal_reconstruct(pd, s, sigma);
   return region;
 }
+
+// ---------------------------------------------------------------------------------------
+// The model: Mohr-Coulomb with the effects of models/Effects.hpp composed by operator split:
+// the strength c is scaled by the rate and remoulding factors of this step, the compaction
+// cap acts on the mean pressure first, then the Mohr-Coulomb return. Deck names
+// "mohr-coulomb" (c, phi, psi) and "tresca" (Su; phi = psi = 0).
+struct MohrCoulomb {
+  static constexpr int id = MODEL_MOHR_COULOMB;
+  KOKKOS_INLINE_FUNCTION static int plastic_correction(const MaterialParams& m, double sigma[4],
+                                                       const double deps[4], double& plastic_strain,
+                                                       double& compaction, double dt) {
+    compaction_return(m, sigma, compaction);
+    double dep = 0.0;
+    int region;
+    if (m.rate_coefficient > 0 || m.remoulded_ratio < 1.0) {
+      MaterialParams mm = m;
+      mm.cohesion = m.cohesion * rate_factor(m, shear_strain_rate(deps, dt)) * remoulding_factor(m, plastic_strain);
+      region = mohr_coulomb_return(mm, sigma, dep);
+    } else {
+      region = mohr_coulomb_return(m, sigma, dep);
+    }
+    plastic_strain += dep;
+    return region;
+  }
+
+  static std::vector<ModelDescription> describe() {
+    using namespace ranges;
+    const ModelKey tension{"tension_cutoff", "Pa", ge(0), 0.0, "largest mean stress (tension positive)",
+                           &MaterialSpec::tension_cutoff};
+    const std::vector<std::string> state = {"plastic_strain", "compaction"};
+    ModelDescription mc;
+    mc.name = "mohr-coulomb";
+    mc.kernel = id;
+    mc.summary = "elastic-perfectly plastic Mohr-Coulomb, exact principal-stress return";
+    mc.keys = {{"c", "Pa", ge(0), 0.0, "cohesion", &MaterialSpec::cohesion},
+               {"phi_deg", "deg", ge_lt(0, 90), 0.0, "friction angle", &MaterialSpec::phi_deg},
+               {"psi_deg", "deg", ge(0), 0.0, "dilation angle", &MaterialSpec::psi_deg, false},
+               tension};
+    mc.effects = true;
+    mc.state = state;
+    mc.rule = [](const MaterialSpec& s) -> std::optional<RuleBreak> {
+      if (s.psi_deg > s.phi_deg)
+        return RuleBreak{"psi_deg", "is out of range", "0 <= psi_deg <= phi_deg (= " + fmt_num(s.phi_deg) + ") (deg)"};
+      return std::nullopt;
+    };
+    mc.to_params = [](const MaterialSpec& s, MaterialParams& m) {
+      m.cohesion = s.cohesion;
+      m.phi = s.phi_deg * pi / 180.0;
+      m.psi = s.psi_deg * pi / 180.0;
+      m.tension_cutoff = s.tension_cutoff;
+    };
+    ModelDescription tr;
+    tr.name = "tresca";
+    tr.kernel = id;
+    tr.summary = "Tresca (undrained, Mohr-Coulomb with phi = 0)";
+    tr.keys = {{"Su", "Pa", gt(0), std::nullopt, "undrained shear strength", &MaterialSpec::cohesion}, tension};
+    tr.effects = true;
+    tr.state = state;
+    tr.to_params = [](const MaterialSpec& s, MaterialParams& m) {
+      m.cohesion = s.cohesion;
+      m.phi = 0.0;
+      m.psi = 0.0;
+      m.tension_cutoff = s.tension_cutoff;
+    };
+    return {mc, tr};
+  }
+};
 
 }  // namespace tamp

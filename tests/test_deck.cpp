@@ -374,9 +374,12 @@ TEST_CASE("Deck: out-of-range values are rejected", "[deck]") {
     p.materials = "[[materials]]\nname = \"soil\"\nmodel = \"elastic\"\ndensity = 2000\nG = 1e6\nnu = 0.5\n";
     require_error(p.text(), {"materials[0].nu = 0.5", "out of range", "0 <= nu < 0.5"});
   }
+  // phi and psi are keys of the plastic models: the fixture's elastic soil made Mohr-Coulomb
+  const std::string mohr_coulomb =
+      "[[materials]]\nname = \"soil\"\nmodel = \"mohr-coulomb\"\ndensity = 2000\nG = 1e6\nnu = 0.3\n";
   SECTION("phi_deg = 90") {
     Parts p;
-    p.materials += "phi_deg = 90\n";
+    p.materials = mohr_coulomb + "phi_deg = 90\n";
     require_error(p.text(), {"materials[0].phi_deg = 90", "out of range", "0 <= phi_deg < 90"});
   }
   SECTION("negative density") {
@@ -386,7 +389,7 @@ TEST_CASE("Deck: out-of-range values are rejected", "[deck]") {
   }
   SECTION("psi above phi") {
     Parts p;
-    p.materials += "phi_deg = 20\npsi_deg = 25.5\n";
+    p.materials = mohr_coulomb + "phi_deg = 20\npsi_deg = 25.5\n";
     require_error(p.text(), {"materials[0].psi_deg = 25.5", "psi_deg <= phi_deg"});
   }
   SECTION("cfl above 1") {
@@ -443,6 +446,13 @@ TEST_CASE("Deck: material rules", "[deck]") {
     Parts p;
     p.materials = head + "model = \"tresca\"\ndensity = 2000\n";
     require_error(p.text(), {"materials[0].Su is missing", "Su > 0"});
+  }
+  SECTION("a key the model does not read") {
+    // An elastic material used to accept phi_deg and ignore it: now each model reads only
+    // the keys it declares (models/MaterialModel.hpp).
+    Parts p;
+    p.materials = head + "model = \"elastic\"\ndensity = 2000\nphi_deg = 30\n";
+    require_error(p.text(), {"materials[0].phi_deg = 30", "is not used by model \"elastic\"", "G, nu"});
   }
   SECTION("duplicate names") {
     Parts p;

@@ -1,0 +1,77 @@
+// What a constitutive model declares about itself, once, on the host: its deck name, the
+// deck keys it reads (unit, allowed range, default, which calibration may fit), how they
+// become the plain-data MaterialParams the kernels use, its cross-key rules and the history
+// variables it updates. The deck reader and writer (core/Deck.cpp), make_material, the plan
+// that `tamp check` prints and calibration's parameter table (drivers/Loop.cpp) all read
+// these descriptions; the device update of each model lives in its own header and is
+// dispatched by MaterialParams::model (models/StressUpdate.hpp). Adding a model: its header
+// (device update + describe()), one line in models/ModelList.hpp, its test, its docs page
+// (docs/adding-a-material-model.md).
+#pragma once
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "core/Range.hpp"
+
+namespace tamp {
+
+// core/Material.hpp (device plain data); not included here so that the deck reader, which
+// is compiled without Kokkos in CUDA builds, can read the descriptions.
+struct MaterialParams;
+
+struct ModelKey {
+  std::string key;                    // deck key ("phi_deg")
+  std::string unit;                   // SI unit as the deck gives it ("Pa", "deg", "" = none)
+  Range range;                        // allowed values
+  std::optional<double> fallback;     // default when the deck leaves it out; none = required
+  std::string meaning;                // short text for the plan and error messages
+  double MaterialSpec::*field = nullptr;  // where it is stored; nullptr: MaterialSpec::params[key]
+  bool fittable = true;               // calibration may fit it (drivers/Loop.cpp)
+};
+
+// A rule between keys, checked after all keys are read; when broken, the key to blame,
+// what is wrong ("is out of range") and what is allowed.
+struct RuleBreak {
+  std::string key, problem, allowed;
+};
+using KeyRule = std::optional<RuleBreak> (*)(const MaterialSpec&);
+
+struct ModelDescription {
+  std::string name;                   // deck name: model = "<name>"
+  int kernel = 0;                     // MaterialParams::model (ModelId): the device update it runs
+  std::string summary;                // one line for the plan and the docs
+  std::vector<ModelKey> keys;         // its own deck keys (density, G, nu are common)
+  bool effects = false;               // takes the effect keys of models/Effects.hpp
+  std::vector<std::string> state;     // particle history variables it updates
+  KeyRule rule = nullptr;             // cross-key rule (e.g. psi <= phi), or none
+  // Its keys (already in spec) into the kernel parameters; the common ones are set before.
+  void (*to_params)(const MaterialSpec& spec, MaterialParams& params) = nullptr;
+};
+
+// Every registered model (models/ModelList.hpp), in registration order.
+const std::vector<ModelDescription>& material_models();
+// The description of deck model name `name`, or nullptr.
+const ModelDescription* find_material_model(const std::string& name);
+// The description of spec.model; throws std::invalid_argument naming the registered models.
+const ModelDescription& material_model(const MaterialSpec& spec);
+// The keys every material has (density, G, nu) and the effect keys (models/Effects.hpp).
+const std::vector<ModelKey>& common_material_keys();
+const std::vector<ModelKey>& effect_material_keys();
+// Whether key is one of the effect keys (written and printed only when set).
+bool is_effect_key(const std::string& key);
+// Where key k of spec is stored, and the value (its fallback when unset).
+double& key_value(MaterialSpec& spec, const ModelKey& k);
+double key_value(const MaterialSpec& spec, const ModelKey& k);
+// The keys spec's model reads, in order: common, its own, effects (when it takes them).
+std::vector<const ModelKey*> keys_of(const ModelDescription& d);
+// "mohr-coulomb", "tresca", ...: the registered names, each quoted, comma-separated.
+std::string material_model_names();
+
+// Kernel parameters of a deck material (throws std::invalid_argument for an unknown model).
+MaterialParams make_material(const MaterialSpec& spec);
+
+}  // namespace tamp

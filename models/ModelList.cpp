@@ -1,0 +1,125 @@
+// The host registry of the constitutive models (models/ModelList.hpp) and what every
+// material shares: density, G and nu, and the effect keys of models/Effects.hpp.
+#include "models/ModelList.hpp"
+
+#include <set>
+#include <stdexcept>
+
+namespace tamp {
+
+const std::vector<ModelDescription>& material_models() {
+  static const std::vector<ModelDescription> all = [] {
+    std::vector<ModelDescription> v;
+    std::set<int> ids;
+    std::set<std::string> names;
+#define TAMP_DESCRIBE(Model)                                                                \
+  if (!ids.insert(Model::id).second)                                                        \
+    throw std::logic_error(std::string("models/ModelList.hpp: two models have id ") +       \
+                           std::to_string(Model::id) + " (" #Model ")");                     \
+  for (auto& d : Model::describe()) v.push_back(d);
+    TAMP_MATERIAL_MODELS(TAMP_DESCRIBE)
+#undef TAMP_DESCRIBE
+    for (const auto& d : v)
+      if (!names.insert(d.name).second) throw std::logic_error("models/ModelList.hpp: model name '" + d.name + "' twice");
+    return v;
+  }();
+  return all;
+}
+
+const ModelDescription* find_material_model(const std::string& name) {
+  for (const auto& d : material_models())
+    if (d.name == name) return &d;
+  return nullptr;
+}
+
+std::string material_model_names() {
+  std::string s;
+  for (const auto& d : material_models()) s += (s.empty() ? "\"" : ", \"") + d.name + "\"";
+  return s;
+}
+
+const ModelDescription& material_model(const MaterialSpec& spec) {
+  const ModelDescription* d = find_material_model(spec.model);
+  if (!d)
+    throw std::invalid_argument("material '" + spec.name + "': model '" + spec.model +
+                                "' is not a registered model; allowed: " + material_model_names());
+  return *d;
+}
+
+const std::vector<ModelKey>& common_material_keys() {
+  using namespace ranges;
+  static const std::vector<ModelKey> keys = {
+      {"density", "kg/m3", gt(0), std::nullopt, "density (or unit_weight in N/m3)", &MaterialSpec::density},
+      {"G", "Pa", gt(0), std::nullopt, "shear modulus", &MaterialSpec::shear_modulus},
+      {"nu", "", ge_lt(0, 0.5), std::nullopt, "Poisson's ratio", &MaterialSpec::poisson_ratio},
+  };
+  return keys;
+}
+
+const std::vector<ModelKey>& effect_material_keys() {
+  using namespace ranges;
+  static const std::vector<ModelKey> keys = {
+      {"crush_pressure", "Pa", ge(0), 0.0, "(a) compaction: mean pressure where crushing starts",
+       &MaterialSpec::crush_pressure},
+      {"crush_hardening", "Pa", ge(0), 0.0, "(a) hardening per unit compaction strain", &MaterialSpec::crush_hardening},
+      {"air_voids", "", ge_lt(0, 1), 0.0, "(a) largest compaction strain", &MaterialSpec::air_voids},
+      {"rate_coefficient", "", ge(0), 0.0, "(b) strength gain per decade of strain rate",
+       &MaterialSpec::rate_coefficient},
+      {"reference_strain_rate", "1/s", gt(0), 1.0, "(b) reference shear strain rate",
+       &MaterialSpec::reference_strain_rate},
+      {"remoulded_ratio", "", gt_le(0, 1), 1.0, "(c) remoulded / intact strength", &MaterialSpec::remoulded_ratio},
+      {"remoulding_strain", "", gt(0), 1.0, "(c) plastic shear strain at 95 % of the loss",
+       &MaterialSpec::remoulding_strain},
+  };
+  return keys;
+}
+
+bool is_effect_key(const std::string& key) {
+  for (const auto& e : effect_material_keys())
+    if (e.key == key) return true;
+  return false;
+}
+
+double& key_value(MaterialSpec& spec, const ModelKey& k) {
+  if (k.field) return spec.*(k.field);
+  auto it = spec.params.find(k.key);
+  if (it == spec.params.end()) it = spec.params.emplace(k.key, k.fallback.value_or(0.0)).first;
+  return it->second;
+}
+
+double key_value(const MaterialSpec& spec, const ModelKey& k) {
+  if (k.field) return spec.*(k.field);
+  const auto it = spec.params.find(k.key);
+  return it == spec.params.end() ? k.fallback.value_or(0.0) : it->second;
+}
+
+std::vector<const ModelKey*> keys_of(const ModelDescription& d) {
+  std::vector<const ModelKey*> out;
+  for (const auto& k : common_material_keys()) out.push_back(&k);
+  for (const auto& k : d.keys) out.push_back(&k);
+  if (d.effects)
+    for (const auto& k : effect_material_keys()) out.push_back(&k);
+  return out;
+}
+
+MaterialParams make_material(const MaterialSpec& s) {
+  const ModelDescription& d = material_model(s);
+  MaterialParams m;
+  m.model = d.kernel;
+  m.density = s.density;
+  m.shear_modulus = s.shear_modulus;
+  m.bulk_modulus = bulk_from_shear(s.shear_modulus, s.poisson_ratio);
+  if (d.to_params) d.to_params(s, m);
+  if (d.effects) {
+    m.crush_pressure = s.crush_pressure;
+    m.crush_hardening = s.crush_hardening;
+    m.air_voids = s.air_voids;
+    m.rate_coefficient = s.rate_coefficient;
+    m.reference_strain_rate = s.reference_strain_rate;
+    m.remoulded_ratio = s.remoulded_ratio;
+    m.remoulding_strain = s.remoulding_strain;
+  }
+  return m;
+}
+
+}  // namespace tamp

@@ -61,6 +61,9 @@ const ModelDescription& material_model(const MaterialSpec& spec);
 // The keys every material has (density, G, nu) and the effect keys (models/Effects.hpp).
 const std::vector<ModelKey>& common_material_keys();
 const std::vector<ModelKey>& effect_material_keys();
+// A model key kept in MaterialSpec::params; throws std::invalid_argument naming the
+// material and the key when it is not set (a MaterialSpec built in code without it).
+double model_param(const MaterialSpec& spec, const std::string& key);
 // Whether key is one of the effect keys (written and printed only when set).
 bool is_effect_key(const std::string& key);
 // Where key k of spec is stored, and the value (its fallback when unset).

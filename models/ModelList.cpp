@@ -74,6 +74,13 @@ const std::vector<ModelKey>& effect_material_keys() {
   return keys;
 }
 
+double model_param(const MaterialSpec& spec, const std::string& key) {
+  const auto it = spec.params.find(key);
+  if (it == spec.params.end())
+    throw std::invalid_argument("material '" + spec.name + "' (model \"" + spec.model + "\"): " + key + " is not set");
+  return it->second;
+}
+
 bool is_effect_key(const std::string& key) {
   for (const auto& e : effect_material_keys())
     if (e.key == key) return true;

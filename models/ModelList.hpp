@@ -9,7 +9,9 @@
 #pragma once
 #include "models/Elastic.hpp"
 #include "models/MohrCoulomb.hpp"
+#include "models/ModifiedCamClay.hpp"
 
 #define TAMP_MATERIAL_MODELS(X) \
   X(Elastic)                    \
-  X(MohrCoulomb)
+  X(MohrCoulomb)                \
+  X(ModifiedCamClay)

@@ -4,6 +4,8 @@
 // never inside a kernel.
 #pragma once
 #include <string>
+#include <type_traits>
+#include <utility>
 #include "core/Types.hpp"
 
 namespace tamp {
@@ -20,57 +22,99 @@ enum ParticleFlag : int {
   FLAG_FIXED_WALL_GHOST = 64,
 };
 
+// The particle fields, declared once. Storage, growth (reserve), the values of a new
+// particle (fill_new: the generator and the backfill), checkpoint save and restore
+// (drivers/Simulation.cpp) all iterate this list; adding a field is one line here (then
+// the kernel or model that uses it). Mirror particles (kernels/Mirror.hpp) transform the
+// fields they need by the wall's symmetry, which is physics, not a copy, and stay written
+// out there; snapshots (core/Output.hpp) hold the fields a user reads.
+//   X(name, element type, components, value of a new particle, checkpoint, meaning)
+// checkpoint: Saved (a checkpoint must hold it), SavedOptional (a checkpoint from before
+// the field existed restores the new-particle value), NotSaved (derived or scratch).
+#define TAMP_PARTICLE_FIELDS(X)                                                                                \
+  X(x, double, 2, 0.0, Saved, "position (r, z), m")                                                          \
+  X(v, double, 2, 0.0, Saved, "velocity (v_r, v_z), m/s")                                                    \
+  X(a, double, 2, 0.0, Saved, "acceleration, m/s2")                                                          \
+  X(a_ext, double, 2, 0.0, Saved, "external acceleration (surface tractions), m/s2")                         \
+  X(v_prescribed, double, 2, 0.0, Saved, "velocity of FLAG_DRIVEN particles, m/s")                           \
+  X(x_ref, double, 2, 0.0, NotSaved, "position at the last neighbour-list build, m")                         \
+  X(traction0, double, 2, 0.0, Saved, "static traction on non-reflecting boundary particles, Pa")            \
+  X(x_hold, double, 2, 0.0, SavedOptional, "their position when that traction was recorded, m")              \
+  X(mass, double, 1, 0.0, Saved, "ring mass (the whole ring of revolution), kg")                             \
+  X(planar_mass, double, 1, 0.0, NotSaved, "mass / (2 pi r): mass per radian of revolution / r, kg/m")      \
+  X(rho, double, 1, 0.0, Saved, "density, kg/m3")                                                            \
+  X(sigma, double, 4, 0.0, Saved, "Cauchy stress rr, zz, tt, rz (tension positive), Pa")                     \
+  X(sigma_tmp, double, 4, 0.0, NotSaved, "scratch for stress regularisation, Pa")                            \
+  X(art_stress, double, 3, 0.0, NotSaved, "Gray-Monaghan-Swift R (rr, zz, rz), Pa / (kg/m3)^2")              \
+  X(pair_stress, double, 3, 0.0, NotSaved, "mp sigma / rho^2 (rr, zz, rz): a particle's share of the pair term") \
+  X(plastic_strain, double, 1, 0.0, Saved, "accumulated equivalent plastic shear strain, -")                 \
+  X(compaction, double, 1, 0.0, SavedOptional, "plastic volumetric strain, compression positive, -")         \
+  X(internal_energy, double, 1, 0.0, Saved, "specific internal energy (strain + dissipated), J/kg")          \
+  X(du_visc, double, 1, 0.0, Saved, "rate of viscous heating, W/kg")                                         \
+  X(hoop_factor, double, 1, 1.0, NotSaved, "chi: the hoop terms use chi / r (kernels/SphSolid.hpp)")         \
+  X(material, int, 1, 0, Saved, "index into the material table")                                             \
+  X(flags, int, 1, 0, Saved, "ParticleFlag bits")                                                            \
+  X(ghost_source, int, 1, 0, NotSaved, "ghosts: the particle this one mirrors")
+
+enum class FieldCheckpoint { Saved, SavedOptional, NotSaved };
+
+struct FieldInfo {
+  const char* name;
+  FieldCheckpoint checkpoint;
+  const char* meaning;
+};
+
+// View of a field with n components: View1 for one, ViewN otherwise.
+template <class T, int N>
+struct FieldViewOf { using type = ViewN<T, N>; };
+template <class T>
+struct FieldViewOf<T, 1> { using type = View1<T>; };
+template <class T, int N>
+using FieldView = typename FieldViewOf<T, N>::type;
+
 struct Particles {
   int n_real = 0;
   int n_virtual = 0;  // tie particles [n_real, n_real + n_virtual): FEM material seen by the SPH
   int n_total = 0;
   int capacity = 0;
 
-  ViewN<double, 2> x;             // position (r, z), m
-  ViewN<double, 2> v;             // velocity (v_r, v_z), m/s
-  ViewN<double, 2> a;             // acceleration, m/s2
-  ViewN<double, 2> a_ext;         // external acceleration (surface tractions), m/s2
-  ViewN<double, 2> v_prescribed;  // velocity of FLAG_DRIVEN particles, m/s
-  ViewN<double, 2> x_ref;         // position at the last neighbour-list build
-  ViewN<double, 2> traction0;     // static traction on non-reflecting boundary particles, Pa
-  ViewN<double, 2> x_hold;        // their position when that traction was recorded, m
-  View1<double> mass;             // ring mass (the whole ring of revolution), kg
-  View1<double> planar_mass;      // mass / (2 pi r): mass per radian of revolution / r, kg/m
-  View1<double> rho;              // density, kg/m3
-  ViewN<double, 4> sigma;         // Cauchy stress rr, zz, tt, rz (tension positive), Pa
-  ViewN<double, 4> sigma_tmp;     // scratch for stress regularisation
-  ViewN<double, 3> art_stress;    // Gray-Monaghan-Swift R (rr, zz, rz), (Pa) / (kg/m3)^2
-  ViewN<double, 3> pair_stress;   // mp sigma / rho^2 (rr, zz, rz): a particle's share of the
-                                  // symmetric pair term, precomputed once per step
-  View1<double> plastic_strain;   // accumulated equivalent plastic shear strain, -
-  View1<double> compaction;       // plastic volumetric (compaction) strain, effect (a), -
-  View1<double> internal_energy;  // specific internal energy (strain + dissipated), J/kg
-  View1<double> du_visc;          // rate of viscous heating, W/kg
-  View1<double> hoop_factor;      // chi: the hoop terms use chi / r (kernels/SphSolid.hpp)
-  View1<int> material;            // index into the material table
-  View1<int> flags;               // ParticleFlag bits
-  View1<int> ghost_source;        // ghosts: the particle this one mirrors
+#define TAMP_FIELD_MEMBER(name, T, N, init, ckpt, meaning) FieldView<T, N> name;
+  TAMP_PARTICLE_FIELDS(TAMP_FIELD_MEMBER)
+#undef TAMP_FIELD_MEMBER
 
-  void reserve(int new_capacity);  // grows every view, keeping contents
+  // f(info, view, value of a new particle) for every field, in declaration order.
+  template <class F>
+  void for_each_field(F&& f) {
+#define TAMP_FIELD_VISIT(name, T, N, init, ckpt, meaning) \
+  f(FieldInfo{#name, FieldCheckpoint::ckpt, meaning}, name, static_cast<T>(init));
+    TAMP_PARTICLE_FIELDS(TAMP_FIELD_VISIT)
+#undef TAMP_FIELD_VISIT
+  }
+
+  void reserve(int new_capacity);        // grows every view, keeping contents
+  void fill_new(int begin, int end);     // rows [begin, end) of every field: a new particle's values
 };
 
 inline void Particles::reserve(int new_capacity) {
   if (new_capacity <= capacity) return;
-  auto grow = [&](auto& view, const char* label) {
+  for_each_field([&](const FieldInfo& info, auto& view, auto) {
     if (view.extent(0) == 0 && view.data() == nullptr)
-      view = std::decay_t<decltype(view)>(std::string(label), static_cast<size_t>(new_capacity));
+      view = std::decay_t<decltype(view)>(std::string(info.name), static_cast<size_t>(new_capacity));
     else
       Kokkos::resize(view, new_capacity);
-  };
-  grow(x, "x"); grow(v, "v"); grow(a, "a"); grow(a_ext, "a_ext");
-  grow(v_prescribed, "v_prescribed"); grow(x_ref, "x_ref"); grow(traction0, "traction0"); grow(x_hold, "x_hold");
-  grow(mass, "mass"); grow(planar_mass, "planar_mass"); grow(rho, "rho");
-  grow(sigma, "sigma"); grow(sigma_tmp, "sigma_tmp"); grow(art_stress, "art_stress");
-  grow(pair_stress, "pair_stress");
-  grow(plastic_strain, "plastic_strain"); grow(compaction, "compaction"); grow(internal_energy, "internal_energy");
-  grow(du_visc, "du_visc"); grow(hoop_factor, "hoop_factor"); grow(material, "material"); grow(flags, "flags");
-  grow(ghost_source, "ghost_source");
+  });
   capacity = new_capacity;
+}
+
+inline void Particles::fill_new(int begin, int end) {
+  if (end <= begin) return;
+  for_each_field([&](const FieldInfo&, auto& view, auto value) {
+    using V = std::decay_t<decltype(view)>;
+    if constexpr (V::rank == 1)
+      Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(begin, end)), value);
+    else
+      Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(begin, end), Kokkos::ALL), value);
+  });
 }
 
 }  // namespace tamp

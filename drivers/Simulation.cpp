@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <type_traits>
 
 namespace tamp {
 
@@ -273,18 +274,7 @@ void Simulation::build_particles() {
   P.reserve(total + total / 2 + 64);
   P.n_real = total;
   P.n_total = total;
-  Kokkos::deep_copy(P.a, 0.0);
-  Kokkos::deep_copy(P.a_ext, 0.0);
-  Kokkos::deep_copy(P.sigma, 0.0);
-  Kokkos::deep_copy(P.art_stress, 0.0);
-  Kokkos::deep_copy(P.plastic_strain, 0.0);
-  Kokkos::deep_copy(P.compaction, 0.0);
-  Kokkos::deep_copy(P.internal_energy, 0.0);
-  Kokkos::deep_copy(P.du_visc, 0.0);
-  Kokkos::deep_copy(P.hoop_factor, 1.0);
-  Kokkos::deep_copy(P.traction0, 0.0);
-  Kokkos::deep_copy(P.flags, 0);
-  Kokkos::deep_copy(P.v_prescribed, 0.0);
+  P.fill_new(0, P.capacity);  // every field at a new particle's value (core/Particles.hpp)
   const double r_floor = 1e-3 * dp;
   for (const Grid& g : grids) fill_block(P, g, materials_host_[g.mat].density, dp, r_floor);
   Kokkos::fence();
@@ -413,10 +403,9 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   Kokkos::deep_copy(hz_dev, hz);
   Kokkos::deep_copy(hm_dev, hm);
   const double dp = config_.sph.spacing, r_floor = 1e-3 * dp;
-  auto x = P.x; auto v = P.v; auto a = P.a; auto a_ext = P.a_ext; auto vp = P.v_prescribed; auto xr = P.x_ref;
-  auto t0 = P.traction0; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho; auto sigma = P.sigma;
-  auto R = P.art_stress; auto eps = P.plastic_strain; auto ev = P.compaction; auto u = P.internal_energy; auto du = P.du_visc;
-  auto chi = P.hoop_factor; auto mat = P.material; auto flags = P.flags;
+  P.fill_new(n0, n1);  // every field at a new particle's value (core/Particles.hpp), then:
+  auto x = P.x; auto xr = P.x_ref; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
+  auto mat = P.material;
   auto mats = materials_;
   double added = 0;
   Kokkos::parallel_reduce("tamp::add_particles", Kokkos::RangePolicy<ExecSpace>(0, count),
@@ -426,16 +415,10 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
                             const double rho0 = mats(hm_dev(k)).density;
                             x(i, 0) = r; x(i, 1) = hz_dev(k);
                             xr(i, 0) = r; xr(i, 1) = hz_dev(k);
-                            for (int c = 0; c < 2; ++c) {
-                              v(i, c) = 0; a(i, c) = 0; a_ext(i, c) = 0; vp(i, c) = 0; t0(i, c) = 0;
-                            }
-                            for (int c = 0; c < 4; ++c) sigma(i, c) = 0;
-                            for (int c = 0; c < 3; ++c) R(i, c) = 0;
                             rho(i) = rho0;
                             mass(i) = rho0 * 2.0 * pi * r * dp * dp;
                             mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
-                            eps(i) = 0; ev(i) = 0; u(i) = 0; du(i) = 0; chi(i) = 1.0;
-                            mat(i) = hm_dev(k); flags(i) = 0;
+                            mat(i) = hm_dev(k);
                             m_sum += mass(i);
                           },
                           added);
@@ -796,22 +779,14 @@ Checkpoint Simulation::save_state() {
   const Particles& P = particles_;
   const int n = P.n_real;
   Checkpoint c;
-  put_rows(P.x, n, c.reals["x"]);
-  put_rows(P.v, n, c.reals["v"]);
-  put_rows(P.a, n, c.reals["a"]);
-  put_rows(P.a_ext, n, c.reals["a_ext"]);
-  put_rows(P.v_prescribed, n, c.reals["v_prescribed"]);
-  put_rows(P.traction0, n, c.reals["traction0"]);
-  put_rows(P.x_hold, n, c.reals["x_hold"]);
-  put_rows(P.mass, n, c.reals["mass"]);
-  put_rows(P.rho, n, c.reals["rho"]);
-  put_rows(P.sigma, n, c.reals["sigma"]);
-  put_rows(P.plastic_strain, n, c.reals["plastic_strain"]);
-  put_rows(P.compaction, n, c.reals["compaction"]);
-  put_rows(P.internal_energy, n, c.reals["internal_energy"]);
-  put_rows(P.du_visc, n, c.reals["du_visc"]);
-  put_rows(P.material, n, c.ints["material"]);
-  put_rows(P.flags, n, c.ints["flags"]);
+  // the fields core/Particles.hpp declares checkpointed
+  particles_.for_each_field([&](const FieldInfo& f, auto& view, auto) {
+    if (f.checkpoint == FieldCheckpoint::NotSaved) return;
+    if constexpr (std::is_same_v<typename std::decay_t<decltype(view)>::value_type, int>)
+      put_rows(view, n, c.ints[f.name]);
+    else
+      put_rows(view, n, c.reals[f.name]);
+  });
   c.scalars["time"] = time_;
   c.scalars["steps"] = static_cast<double>(steps_);
   c.scalars["particles"] = n;
@@ -887,24 +862,20 @@ void Simulation::load_state(const Checkpoint& c) {
     if (it == c.ints.end()) throw std::invalid_argument(std::string("checkpoint has no field '") + name + "'");
     return it->second;
   };
-  get_rows(real("x"), "x", P.x, n_new);
-  get_rows(real("v"), "v", P.v, n_new);
-  get_rows(real("a"), "a", P.a, n_new);
-  get_rows(real("a_ext"), "a_ext", P.a_ext, n_new);
-  get_rows(real("v_prescribed"), "v_prescribed", P.v_prescribed, n_new);
-  get_rows(real("traction0"), "traction0", P.traction0, n_new);
-  get_rows(real("mass"), "mass", P.mass, n_new);
-  get_rows(real("rho"), "rho", P.rho, n_new);
-  get_rows(real("sigma"), "sigma", P.sigma, n_new);
-  get_rows(real("plastic_strain"), "plastic_strain", P.plastic_strain, n_new);
-  if (c.reals.count("compaction")) get_rows(real("compaction"), "compaction", P.compaction, n_new);
-  else Kokkos::deep_copy(P.compaction, 0.0);
-  get_rows(real("internal_energy"), "internal_energy", P.internal_energy, n_new);
-  get_rows(real("du_visc"), "du_visc", P.du_visc, n_new);
-  get_rows(integer("material"), "material", P.material, n_new);
-  get_rows(integer("flags"), "flags", P.flags, n_new);
-  if (c.reals.count("x_hold")) get_rows(real("x_hold"), "x_hold", P.x_hold, n_new);
-  else hold_boundary_stress();  // a checkpoint from before the springs: hold them here
+  // the fields core/Particles.hpp declares checkpointed; an optional one missing from an
+  // older checkpoint takes a new particle's value
+  P.for_each_field([&](const FieldInfo& f, auto& view, auto value) {
+    if (f.checkpoint == FieldCheckpoint::NotSaved) return;
+    constexpr bool is_int = std::is_same_v<typename std::decay_t<decltype(view)>::value_type, int>;
+    const bool present = is_int ? c.ints.count(f.name) > 0 : c.reals.count(f.name) > 0;
+    if (!present && f.checkpoint == FieldCheckpoint::SavedOptional) {
+      Kokkos::deep_copy(view, value);
+      return;
+    }
+    if constexpr (is_int) get_rows(integer(f.name), f.name, view, n_new);
+    else get_rows(real(f.name), f.name, view, n_new);
+  });
+  if (!c.reals.count("x_hold")) hold_boundary_stress();  // a checkpoint from before the springs: hold them here
   time_ = scalar("time");
   steps_ = static_cast<long>(scalar("steps"));
   sph_.gravity = gravity_at(time_);

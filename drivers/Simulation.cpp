@@ -52,7 +52,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   refresh_neighbours(true);
   ensure_pair_storage();
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
-                       PairKernelFactors{particles_.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+                       PairKernelFactors(particles_, neighbours_, pair_f_, sph_.h));
   if (config_.fem.enabled) build_fem();  // elements outside the SPH zone, tied to the particles
   if (config_.initial_stress == "geostatic") {
     set_geostatic_stress();  // also updates the pair stress and the accelerations
@@ -183,7 +183,7 @@ void Simulation::ensure_pair_storage() {
 void Simulation::update_pair_stress() {
   Particles& P = particles_;
   Kokkos::parallel_for("tamp::sph::pair_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       PairStress{P.planar_mass, P.rho, P.sigma, P.pair_stress});
+                       PairStress(P));
   ghosts_.sync_stress(P, sph_.gravity);
 }
 
@@ -305,12 +305,16 @@ void Simulation::compute_acceleration() {
     if (static_cast<int>(s->extent(0)) < P.capacity) {
       *s = ViewN<double, 2>("tamp::acceleration_part", P.capacity);
     }
-  Acceleration f{P.x, P.v, P.a, P.a_ext, a_wall_, a_art_, P.flags, P.mass, P.rho, P.du_visc, P.sigma, P.pair_stress, P.art_stress,
-                 P.material, neighbours_.offsets, neighbours_.neighbours, pair_f_, P.hoop_factor, materials_, sph_, fab_table_,
-                 fixed_walls_ ? 1 : 0};
-  Kokkos::parallel_for("tamp::sph::acceleration", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f);
-  profile_mark(&StepProfile::sph);
-  if (fem_ && tie_.count > 0) {  // the interface traction from the stresses of both sides
+  {
+    Timed t(*this, &StepProfile::sph);
+    Acceleration f(P, neighbours_, pair_f_, materials_, sph_, fab_table_);
+    f.a_wall = a_wall_;
+    f.a_art = a_art_;
+    f.fixed_walls = fixed_walls_ ? 1 : 0;
+    Kokkos::parallel_for("tamp::sph::acceleration", real_particles(), f);
+  }
+  if (fem_ && tie_.count > 0) {
+    Timed t(*this, &StepProfile::tie);  // the interface traction from the stresses of both sides
     Kokkos::parallel_for("tamp::tie::traction", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieTraction{P.x, P.planar_mass, P.rho, P.sigma, neighbours_.offsets, neighbours_.neighbours,
                                      tie_.normal, tie_.depth, tie_.face_area, tie_.force, sph_.h,
@@ -319,17 +323,19 @@ void Simulation::compute_acceleration() {
     Kokkos::deep_copy(mesh.f_tie, 0.0);
     Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieForceToNodes{tie_.force, mesh.f_tie, tie_.edge_a, tie_.edge_b, tie_.edge_s});
-    profile_mark(&StepProfile::tie);
   }
-  if (non_reflecting_.count > 0)
-    Kokkos::parallel_for("tamp::non_reflecting", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                         NonReflectingBoundary{P.x, P.v, P.a, P.traction0, P.x_hold, a_boundary_, P.rho, P.material,
-                                               P.flags, materials_, non_reflecting_, config_.sph.spacing});
+  Timed t(*this, &StepProfile::sph);
+  if (non_reflecting_.count > 0) {
+    NonReflectingBoundary f(P, materials_, non_reflecting_, config_.sph.spacing);
+    f.a_boundary = a_boundary_;
+    Kokkos::parallel_for("tamp::non_reflecting", real_particles(), f);
+  }
   if (fixed_walls_) {
     const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
-    Kokkos::parallel_for("tamp::wall_friction", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                         WallFriction{P.x, P.v, P.a, a_wall_, a_friction_, P.rho, P.material, P.flags, materials_,
-                                      ghosts_.planes, config_.sph.spacing, dt});
+    WallFriction f(P, materials_, ghosts_.planes, config_.sph.spacing, dt);
+    f.a_wall = a_wall_;
+    f.a_friction = a_friction_;
+    Kokkos::parallel_for("tamp::wall_friction", real_particles(), f);
   }
   if (body_.active) apply_contact();
 }
@@ -340,9 +346,9 @@ void Simulation::apply_contact() {
     contact_force_ = ViewN<double, 2>("tamp::contact_force", P.capacity);
   RigidBodyState state{body_.profile, body_.r0, body_.z0, body_.v_r, body_.v_z};
   const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
-  Kokkos::parallel_for("tamp::contact::penalty", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       PenaltyContact{P.x, P.v, P.a, contact_force_, P.mass, P.rho, P.material, P.flags,
-                                      materials_, state, contact_law_, dt});
+  PenaltyContact f(P, materials_, state, contact_law_, dt);
+  f.force = contact_force_;
+  Kokkos::parallel_for("tamp::contact::penalty", real_particles(), f);
   body_.contact = contact_sums(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
   if (!body_.kinematic) {
     body_.a_r = body_.free_r ? -body_.contact.force_r / body_.mass : 0.0;
@@ -444,7 +450,7 @@ double Simulation::body_energy() const {
 double Simulation::stable_dt() const {
   const Particles& P = particles_;
   double dt = 1e30;
-  StableStep s{P.v, P.a, P.rho, P.material, materials_, sph_.h};
+  StableStep s(P, materials_, sph_.h);
   Kokkos::parallel_reduce("tamp::stable_dt", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), s,
                           Kokkos::Min<double>(dt));
   const double dt_sph = config_.run.cfl * dt;
@@ -456,8 +462,9 @@ double Simulation::gravity_at(double t) const {
   return ramp > 0 && t < ramp ? config_.gravity * t / ramp : config_.gravity;
 }
 
-void Simulation::step(double dt_override) {
-  Particles& P = particles_;
+// The step to take: dt_override, or the stable step; a collapsed or non-finite step ends the
+// run with the worst particle named.
+double Simulation::checked_step(double dt_override) const {
   const double dt = dt_override > 0 ? dt_override : stable_dt();
   const double dt_floor = 1e-6 * config_.run.cfl * sph_.h / 1e4;  // far below any soil's step
   if (!(dt > dt_floor) || !std::isfinite(dt)) {
@@ -480,81 +487,120 @@ void Simulation::step(double dt_override) {
           << ") m/s, density " << snap.density[worst] << " kg/m3";
     throw RunFailure(msg.str());
   }
+  return dt;
+}
+
+// One leapfrog step, kick-drift-kick (docs/sph.md); the parts the model may not have (tied
+// elements, the pounder) are named steps that do nothing without them.
+void Simulation::step(double dt_override) {
+  double dt;
+  {
+    Timed t(*this, &StepProfile::other);
+    dt = checked_step(dt_override);
+  }
   dt_ = dt;
-  profile_mark(&StepProfile::other);  // the stable step
   sph_.gravity = gravity_at(time_ + dt);  // the accelerations below are those at t + dt
   if (fem_) fem_->set_gravity(sph_.gravity);
-  using policy = Kokkos::RangePolicy<ExecSpace>;
-  const policy reals(0, P.n_real);
 
-  Kick kick{P.v, P.a, P.v_prescribed, P.internal_energy, P.du_visc, P.flags, 0.5 * dt};
-  account_half_kick(dt, 0.25 * dt);  // the first half kick, with the accelerations of x^n
-  Kokkos::parallel_for("tamp::kick", reals, kick);
-  integrate_body_half(0.5 * dt);
-  if (body_.active) {
-    body_.r0 += dt * body_.v_r;
-    body_.z0 += dt * body_.v_z;
+  first_half_kick(dt);      // v^{n+1/2}, with the accelerations of x^n
+  drift(dt);                // x^{n+1}: particles, pounder, element nodes, tie particles
+  {
+    Timed t(*this, &StepProfile::search);
+    refresh_neighbours(false);
   }
+  rates_and_stress(dt);     // velocity gradient, density and stress at x^{n+1}
+  compute_acceleration();   // forces at x^{n+1}
+  second_half_kick(dt);     // v^{n+1}
 
-  MirrorPlanes walls;  // the axis and the walls: reflect particles that cross them
-  walls = ghosts_.planes;
-  Drift drift{P.x, P.v, P.mass, P.planar_mass, P.flags, walls, non_reflecting_, dt, 1e-3 * config_.sph.spacing};
-  Kokkos::parallel_for("tamp::drift", reals, drift);
-  profile_mark(&StepProfile::sph);
-  if (fem_) {  // the tied FEM: v^{n+1/2}, x^{n+1} with the forces of x^n (tie forces included)
-    fem_->move_nodes(dt);
-    profile_mark(&StepProfile::fem);
-    sync_tie_kinematics();
-    profile_mark(&StepProfile::tie);
-  }
-
-  refresh_neighbours(false);
-  profile_mark(&StepProfile::search);
-
-  ensure_pair_storage();
-  StrainRateAndStress rates{P.x, P.v, P.hoop_factor, pair_f_, P.mass, P.rho, P.plastic_strain, P.compaction, P.internal_energy,
-                            P.sigma, P.art_stress, P.material, neighbours_.offsets,
-                            neighbours_.neighbours, materials_, sph_, dt};
-  Kokkos::parallel_for("tamp::sph::strain_rate_stress", reals, rates);
-  profile_mark(&StepProfile::sph);
-  if (fem_) {  // FEM stresses and internal forces at x^{n+1}; the tie particles take them
-    fem_->update_elements(dt);
-    profile_mark(&StepProfile::fem);
-    sync_tie_stress();
-    profile_mark(&StepProfile::tie);
-  }
-  update_pair_stress();
-
-  const int every = config_.sph.regularise_every;
-  if (every > 0 && (steps_ + 1) % every == 0) {
-    StressRegularisation reg{P.x, P.planar_mass, P.rho, P.sigma, P.sigma_tmp,
-                             neighbours_.offsets, neighbours_.neighbours, sph_.h};
-    Kokkos::parallel_for("tamp::sph::regularise", reals, reg);
-    auto s = P.sigma; auto t = P.sigma_tmp;
-    Kokkos::parallel_for("tamp::sph::regularise_copy", reals, KOKKOS_LAMBDA(int i) {
-      for (int c = 0; c < 4; ++c) s(i, c) = t(i, c);
-    });
-    update_pair_stress();
-  }
-
-  compute_acceleration();
-  damp_back_ = 0.5 * dt;  // the damping above used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
-  Kokkos::parallel_for("tamp::kick", reals, kick);
-  integrate_body_half(0.5 * dt);
-  profile_mark(&StepProfile::sph);
-  account_half_kick(dt, -0.25 * dt);  // the second half kick
-  profile_mark(&StepProfile::other);
   if (profiling_) ++profile_.steps;
   time_ += dt;
   ++steps_;
 }
 
-void Simulation::profile_mark(double StepProfile::*part) {
-  if (!profiling_) return;
+void Simulation::first_half_kick(double dt) {
+  Timed t(*this, &StepProfile::sph);
+  account_half_kick(dt, 0.25 * dt);  // the work of every force over this half kick
+  Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
+  integrate_body_half(0.5 * dt);
+}
+
+void Simulation::drift(double dt) {
+  {
+    Timed t(*this, &StepProfile::sph);
+    drift_body(dt);
+    Kokkos::parallel_for("tamp::drift", real_particles(),
+                         Drift(particles_, ghosts_.planes, non_reflecting_, dt, 1e-3 * config_.sph.spacing));
+  }
+  drift_elements(dt);
+}
+
+void Simulation::drift_body(double dt) {
+  if (!body_.active) return;
+  body_.r0 += dt * body_.v_r;
+  body_.z0 += dt * body_.v_z;
+}
+
+// The tied elements: v^{n+1/2}, x^{n+1} with the forces of x^n (tie forces included); the
+// tie particles follow.
+void Simulation::drift_elements(double dt) {
+  if (!fem_) return;
+  {
+    Timed t(*this, &StepProfile::fem);
+    fem_->move_nodes(dt);
+  }
+  Timed t(*this, &StepProfile::tie);
+  sync_tie_kinematics();
+}
+
+void Simulation::rates_and_stress(double dt) {
+  Particles& P = particles_;
+  {
+    Timed t(*this, &StepProfile::sph);
+    ensure_pair_storage();
+    Kokkos::parallel_for("tamp::sph::strain_rate_stress", real_particles(),
+                         StrainRateAndStress(P, neighbours_, pair_f_, materials_, sph_, dt));
+  }
+  element_stress(dt);
+  Timed t(*this, &StepProfile::sph);
+  update_pair_stress();
+  const int every = config_.sph.regularise_every;
+  if (every > 0 && (steps_ + 1) % every == 0) {
+    Kokkos::parallel_for("tamp::sph::regularise", real_particles(), StressRegularisation(P, neighbours_, sph_.h));
+    const auto reals = std::make_pair(0, P.n_real);
+    Kokkos::deep_copy(Kokkos::subview(P.sigma, reals, Kokkos::ALL), Kokkos::subview(P.sigma_tmp, reals, Kokkos::ALL));
+    update_pair_stress();
+  }
+}
+
+// FEM stresses and internal forces at x^{n+1}; the tie particles take the stresses.
+void Simulation::element_stress(double dt) {
+  if (!fem_) return;
+  {
+    Timed t(*this, &StepProfile::fem);
+    fem_->update_elements(dt);
+  }
+  Timed t(*this, &StepProfile::tie);
+  sync_tie_stress();
+}
+
+void Simulation::second_half_kick(double dt) {
+  Timed t(*this, &StepProfile::sph);
+  damp_back_ = 0.5 * dt;  // the damping used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
+  Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
+  integrate_body_half(0.5 * dt);
+  account_half_kick(dt, -0.25 * dt);
+}
+
+Simulation::Timed::Timed(Simulation& sim, double StepProfile::*part) : sim_(sim), part_(part) {
+  if (!sim_.profiling_) return;
   Kokkos::fence();
-  const double now = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-  if (profile_clock_ > 0) profile_.*part += now - profile_clock_;
-  profile_clock_ = now;
+  start_ = std::chrono::steady_clock::now();
+}
+
+Simulation::Timed::~Timed() {
+  if (!sim_.profiling_) return;
+  Kokkos::fence();
+  sim_.profile_.*part_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
 void Simulation::advance_to(double end_time, const std::function<bool()>& on_step) {
@@ -582,8 +628,20 @@ void Simulation::account_half_kick(double dt, double shift) {
   const bool contact = body_.active && contact_force_.extent(0) > 0;
   const double ur = body_.kinematic ? body_.v_r : body_.v_r + shift * body_.a_r;
   const double uz = body_.kinematic ? body_.v_z : body_.v_z + shift * body_.a_z;
-  EnergyFluxes f{count, P.v, P.a, a_boundary_, a_friction_, contact_force_, a_art_, P.mass, P.du_visc, P.material, sph_.damping,
-                 shift, damp_back_, ur, uz, non_reflecting_.count > 0 ? 1 : 0, fixed_walls_ ? 1 : 0, contact ? 1 : 0, sph_.art_eps > 0 ? 1 : 0};
+  EnergyFluxes f(P, static_cast<unsigned>(materials_host_.size()));
+  f.a_boundary = a_boundary_;
+  f.a_friction = a_friction_;
+  f.contact_force = contact_force_;
+  f.a_art = a_art_;
+  f.damping = sph_.damping;
+  f.shift = shift;
+  f.damp_back = damp_back_;
+  f.body_ur = ur;
+  f.body_uz = uz;
+  f.with_boundary = non_reflecting_.count > 0 ? 1 : 0;
+  f.with_friction = fixed_walls_ ? 1 : 0;
+  f.with_contact = contact ? 1 : 0;
+  f.with_art = sph_.art_eps > 0 ? 1 : 0;
   Kokkos::parallel_reduce("tamp::energy::fluxes", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
                           Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(p.data(), count));
   const double h = 0.5 * dt;  // the half kick
@@ -600,8 +658,7 @@ std::vector<MaterialEnergy> Simulation::material_energies() const {
   const size_t nm = materials_host_.size();
   const unsigned count = 4 * static_cast<unsigned>(nm);
   std::vector<double> sums(count, 0.0);
-  MaterialEnergies f{count, P.x, P.v, P.mass, P.rho, P.internal_energy, P.sigma, P.material, materials_,
-                     config_.gravity};
+  MaterialEnergies f(P, static_cast<unsigned>(nm), materials_, config_.gravity);
   Kokkos::parallel_reduce("tamp::energy::materials", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
                           Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(sums.data(), count));
   std::vector<MaterialEnergy> out(nm);
@@ -771,7 +828,7 @@ void Simulation::rebuild_lists() {
   ensure_pair_storage();
   // the pair kernel factors follow the new list (compute_acceleration reads them)
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
-                       PairKernelFactors{particles_.x, neighbours_.offsets, neighbours_.neighbours, pair_f_, sph_.h});
+                       PairKernelFactors(particles_, neighbours_, pair_f_, sph_.h));
 }
 
 Checkpoint Simulation::save_state() {

@@ -2,6 +2,7 @@
 // time. It only sequences kernels (kernels/) and holds state; physics lives in kernels
 // and models.
 #pragma once
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -11,7 +12,7 @@
 #include "core/Material.hpp"
 #include "core/Output.hpp"
 #include "core/Particles.hpp"
-#include "drivers/FemModel.hpp"
+#include "kernels/FemModel.hpp"
 #include "kernels/EnergyAccount.hpp"
 #include "kernels/Integrate.hpp"
 #include "kernels/Mirror.hpp"
@@ -218,8 +219,28 @@ class Simulation {
   void account_half_kick(double dt, double shift);
   bool profiling_ = false;
   StepProfile profile_;
-  double profile_clock_ = 0;
-  void profile_mark(double StepProfile::*part);  // adds the time since the last mark to `part`
+  // Adds the wall time of its scope to one part of the profile (when profiling).
+  class Timed {
+   public:
+    Timed(Simulation& sim, double StepProfile::*part);
+    ~Timed();
+    Timed(const Timed&) = delete;
+    Timed& operator=(const Timed&) = delete;
+   private:
+    Simulation& sim_;
+    double StepProfile::*part_;
+    std::chrono::steady_clock::time_point start_;
+  };
+  // The named parts of step(): the scheme of docs/sph.md.
+  double checked_step(double dt_override) const;
+  void first_half_kick(double dt);
+  void drift(double dt);
+  void drift_body(double dt);
+  void drift_elements(double dt);
+  void rates_and_stress(double dt);
+  void element_stress(double dt);
+  void second_half_kick(double dt);
+  Kokkos::RangePolicy<ExecSpace> real_particles() const { return Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real); }
   fem::FemModel* fem_ = nullptr;  // tied FEM mesh, or none
   std::unique_ptr<fem::FemModel> own_fem_;  // the deck's [fem] mesh (fem_ points to it)
   void build_fem();

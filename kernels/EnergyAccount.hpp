@@ -39,6 +39,14 @@ struct EnergyFluxes {
   double body_ur, body_uz;  // the body's mid-kick velocity U
   int with_boundary, with_friction, with_contact, with_art;
 
+  // Built by name from the particle fields; the parts of a written apart, the body's
+  // velocity and the switches are set by the caller by name.
+  EnergyFluxes(const Particles& P, unsigned n_materials)
+      : value_count(5 + n_materials), damping(0), shift(0), damp_back(0), body_ur(0), body_uz(0),
+        with_boundary(0), with_friction(0), with_contact(0), with_art(0) {
+    v = P.v; a = P.a; mass = P.mass; du_visc = P.du_visc; material = P.material;
+  }
+
   KOKKOS_INLINE_FUNCTION void operator()(const int i, value_type sum) const {
     const double m = mass(i), ar = a(i, 0), az = a(i, 1);
     const double ur = v(i, 0) + shift * ar, uz = v(i, 1) + shift * az;
@@ -71,6 +79,12 @@ struct MaterialEnergies {
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   double gravity;
 
+  MaterialEnergies(const Particles& P, unsigned n_materials, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in,
+                   double gravity_in)
+      : value_count(4 * n_materials), materials(materials_in), gravity(gravity_in) {
+    x = P.x; v = P.v; mass = P.mass; rho = P.rho; internal_energy = P.internal_energy; sigma = P.sigma;
+    material = P.material;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i, value_type sum) const {
     const int k = 4 * material(i);
     const double m = mass(i);

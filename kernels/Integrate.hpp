@@ -14,6 +14,11 @@ struct Kick {
   View1<double> internal_energy, du_visc;
   View1<int> flags;
   double dt_half;
+  // Built by name from the particle fields (core/Particles.hpp).
+  Kick(const Particles& P, double dt_half_in) : dt_half(dt_half_in) {
+    v = P.v; a = P.a; v_prescribed = P.v_prescribed;
+    internal_energy = P.internal_energy; du_visc = P.du_visc; flags = P.flags;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     if (flags(i) & FLAG_DRIVEN) {
       v(i, 0) = v_prescribed(i, 0);
@@ -39,6 +44,11 @@ struct Drift {
   MirrorPlanes open_planes;  // the non-reflecting boundaries, in their flag-bit order
   double dt;
   double r_floor;  // smallest radius used for the planar mass, m
+  Drift(const Particles& P, const MirrorPlanes& walls_in, const MirrorPlanes& open_planes_in, double dt_in,
+        double r_floor_in)
+      : walls(walls_in), open_planes(open_planes_in), dt(dt_in), r_floor(r_floor_in) {
+    x = P.x; v = P.v; mass = P.mass; planar_mass = P.planar_mass; flags = P.flags;
+  }
   KOKKOS_INLINE_FUNCTION void reflect(const int i, const MirrorPlane& pl) const {
     const double d = (x(i, pl.axis) - pl.position) * pl.side;
     if (d < 0) {
@@ -63,6 +73,10 @@ struct StableStep {
   View1<int> material;
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   double h;
+  StableStep(const Particles& P, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, double h_in)
+      : materials(materials_in), h(h_in) {
+    v = P.v; a = P.a; rho = P.rho; material = P.material;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i, double& dt_min) const {
     const MaterialParams& m = materials(material(i));
     const double c = math::sqrt(m.p_wave_modulus() / rho(i));

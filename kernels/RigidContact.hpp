@@ -113,6 +113,12 @@ struct PenaltyContact {
   ContactLaw law;
   double dt;
 
+  // Built by name; force (out) is set by the caller.
+  PenaltyContact(const Particles& P, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in,
+                 const RigidBodyState& body_in, const ContactLaw& law_in, double dt_in)
+      : materials(materials_in), body(body_in), law(law_in), dt(dt_in) {
+    x = P.x; v = P.v; a = P.a; mass = P.mass; rho = P.rho; material = P.material; flags = P.flags;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     force(i, 0) = 0.0;
     force(i, 1) = 0.0;

@@ -50,6 +50,16 @@ struct StrainRateAndStress {
   SphParams p;
   double dt;
 
+  // Built by name: the particle fields, the neighbour list, the pair factors it writes.
+  StrainRateAndStress(const Particles& P, const NeighbourList& list, const View1<double>& pair_f_out,
+                      const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
+                      double dt_in)
+      : pair_f(pair_f_out), materials(materials_in), p(p_in), dt(dt_in) {
+    x = P.x; v = P.v; hoop_factor = P.hoop_factor; mass = P.mass; rho = P.rho;
+    plastic_strain = P.plastic_strain; compaction = P.compaction; internal_energy = P.internal_energy;
+    sigma = P.sigma; art_stress = P.art_stress; material = P.material;
+    offsets = list.offsets; neighbours = list.neighbours;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
     const Wendland2D W(p.h);
     const double xa = x(a, 0), za = x(a, 1);
@@ -167,6 +177,17 @@ struct Acceleration {
   Kokkos::View<const double*, MemSpace> fab_table;  // (W(q)/W(dp))^n tabulated, see below
   int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
 
+  // Built by name; the parts written apart (a_wall, a_art) and fixed_walls are set by the
+  // caller by name.
+  Acceleration(const Particles& P, const NeighbourList& list, const View1<double>& pair_f_in,
+               const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
+               const Kokkos::View<const double*, MemSpace>& fab_table_in)
+      : pair_f(pair_f_in), materials(materials_in), p(p_in), fab_table(fab_table_in) {
+    x = P.x; v = P.v; a = P.a; a_ext = P.a_ext; flags = P.flags; mass = P.mass; rho = P.rho;
+    du_visc = P.du_visc; sigma = P.sigma; pair_stress = P.pair_stress; art_stress = P.art_stress;
+    material = P.material; hoop_factor = P.hoop_factor;
+    offsets = list.offsets; neighbours = list.neighbours;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     const double xa = x(i, 0), za = x(i, 1);
     const double vra = v(i, 0), vza = v(i, 1);
@@ -255,6 +276,10 @@ struct PairKernelFactors {
   View1<int> offsets, neighbours;
   View1<double> pair_f;
   double h;
+  PairKernelFactors(const Particles& P, const NeighbourList& list, const View1<double>& pair_f_out, double h_in)
+      : pair_f(pair_f_out), h(h_in) {
+    x = P.x; offsets = list.offsets; neighbours = list.neighbours;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
     const Wendland2D W(h);
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
@@ -271,6 +296,9 @@ struct PairStress {
   View1<double> planar_mass, rho;
   ViewN<double, 4> sigma;
   ViewN<double, 3> pair_stress;
+  explicit PairStress(const Particles& P) {
+    planar_mass = P.planar_mass; rho = P.rho; sigma = P.sigma; pair_stress = P.pair_stress;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     const double k = planar_mass(i) / (rho(i) * rho(i));
     pair_stress(i, 0) = k * sigma(i, 0);
@@ -299,6 +327,13 @@ struct NonReflectingBoundary {
   MirrorPlanes planes;  // reused geometry: axis, position, side, spring_distance
   double dp;
 
+  // Built by name; a_boundary (the part written apart) is set by the caller.
+  NonReflectingBoundary(const Particles& P, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in,
+                        const MirrorPlanes& planes_in, double dp_in)
+      : materials(materials_in), planes(planes_in), dp(dp_in) {
+    x = P.x; v = P.v; a = P.a; traction0 = P.traction0; x_hold = P.x_hold; rho = P.rho;
+    material = P.material; flags = P.flags;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     a_boundary(i, 0) = 0.0;
     a_boundary(i, 1) = 0.0;
@@ -352,6 +387,11 @@ struct StressRegularisation {
   View1<int> offsets, neighbours;
   double h;
 
+  // Reads P.sigma, writes P.sigma_tmp.
+  StressRegularisation(const Particles& P, const NeighbourList& list, double h_in) : h(h_in) {
+    x = P.x; planar_mass = P.planar_mass; rho = P.rho; sigma = P.sigma; sigma_out = P.sigma_tmp;
+    offsets = list.offsets; neighbours = list.neighbours;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
     const Wendland2D W(h);
     const double xa = x(a, 0), za = x(a, 1);

@@ -29,6 +29,12 @@ struct WallFriction {
   MirrorPlanes walls;  // the axis and walls; friction on the no_slip (fixed) ones
   double dp, dt;
 
+  // Built by name; a_wall (in) and a_friction (out) are set by the caller.
+  WallFriction(const Particles& P, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in,
+               const MirrorPlanes& walls_in, double dp_in, double dt_in)
+      : materials(materials_in), walls(walls_in), dp(dp_in), dt(dt_in) {
+    x = P.x; v = P.v; a = P.a; rho = P.rho; material = P.material; flags = P.flags;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     a_friction(i, 0) = 0.0;
     a_friction(i, 1) = 0.0;

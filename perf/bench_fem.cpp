@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/FemModel.hpp"
+#include "kernels/FemModel.hpp"
 #include "drivers/LabMaterials.hpp"
 #include "drivers/Simulation.hpp"
 

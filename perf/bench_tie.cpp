@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
-#include "drivers/FemModel.hpp"
+#include "kernels/FemModel.hpp"
 #include "drivers/LabMaterials.hpp"
 #include "drivers/Simulation.hpp"
 

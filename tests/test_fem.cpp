@@ -1,4 +1,4 @@
-// Axisymmetric 4-node quad FEM (kernels/FemQuad.hpp, drivers/FemModel.hpp; issue 3, "FEM
+// Axisymmetric 4-node quad FEM (kernels/FemQuad.hpp, kernels/FemModel.hpp; issue 3, "FEM
 // far field"): patch test, 1D compression wave speed, hourglass energy in bending.
 // Equations and measured figures: docs/fem.md.
 #include <catch2/catch.hpp>
@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "drivers/FemModel.hpp"
+#include "kernels/FemModel.hpp"
 #include "drivers/LabMaterials.hpp"
 #include "drivers/Simulation.hpp"
 

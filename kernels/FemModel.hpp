@@ -1,4 +1,4 @@
-// A small host driver for the axisymmetric quad FEM (kernels/FemQuad.hpp): a structured
+// The element model: the axisymmetric quad FEM (kernels/FemQuad.hpp): a structured
 // mesh on a grid of node lines r_i, z_j (graded or not) whose cells each hold an element
 // of one material or are left empty (where particles are, for an SPH-FEM tie), nodal
 // boundary conditions, and central-difference stepping. Header-only. docs/fem.md.
@@ -43,7 +43,7 @@ enum FemAssembly : int { ASSEMBLY_SCATTER = 0, ASSEMBLY_ATOMIC = 1 };
 
 struct FemOptions {
   double cfl = 0.8;                      // dt = cfl * min_e L_e / c_e (1.0 ran stable)
-  int hourglass = HOURGLASS_STIFFNESS;   // HourglassForm
+  int hourglass = HOURGLASS_VISCOUS;     // HourglassForm; the deck's default too ([fem] hourglass)
   double hourglass_coefficient = 0.1;    // kappa (docs/fem.md)
   double gravity = 0.0;                  // m/s2, acting in -z
   double damping = 0.0;                  // 1/s, mass-proportional (dynamic relaxation)

@@ -1,6 +1,7 @@
 // Input decks: TOML -> validated Config (see Deck.hpp for the layout), Config -> TOML.
 #include "core/Format.hpp"
 #include "core/Deck.hpp"
+#include "core/ParticleGrid.hpp"
 #include "core/Range.hpp"
 #include "models/MaterialModel.hpp"
 
@@ -679,6 +680,82 @@ void read_tracers(const Table& top, Config& cfg) {
   }
 }
 
+// ---------------------------------------------------------------- a model that can run
+
+// "1.5e+11", "4.3e+09": three significant digits, for counts in messages.
+std::string fmt_num_short(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+// "165 TB", "12.3 GB", "640 MB".
+std::string fmt_bytes(double b) {
+  const char* units[] = {"B", "kB", "MB", "GB", "TB", "PB", "EB"};
+  int k = 0;
+  while (b >= 1000 && k < 6) { b /= 1000; ++k; }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g %s", b, units[k]);
+  return buf;
+}
+
+// What validation of single keys cannot see: every block at least half a spacing thick
+// along r and z (one particle), a particle count that fits (core/ParticleGrid.hpp), and a
+// finite, positive stable step and step count (the CFL step on the fastest P-wave speed,
+// dt = cfl h / c_p, as kernels/Integrate.hpp StableStep takes it at rest).
+void check_runnable(const Reporter& rep, const Config& cfg, const std::vector<const toml::table*>& block_tables,
+                    const std::vector<const toml::table*>& material_tables) {
+  const double dp = cfg.sph.spacing;
+  const std::string spacing = "sph.spacing = " + fmt_num(dp) + " m";
+  double asked = 0;
+  for (std::size_t i = 0; i < cfg.blocks.size(); ++i) {
+    const BlockSpec& b = cfg.blocks[i];
+    const std::string p = "blocks[" + std::to_string(i) + "]";
+    const double nr = std::round((b.r_max - b.r_min) / dp), nz = std::round((b.z_max - b.z_min) / dp);
+    if (!(nr >= 1))
+      rep.bad(p + ".r", *block_tables[i]->get("r"), "is thinner than one particle spacing (" + spacing + ")",
+              "r_max - r_min >= spacing / 2");
+    if (!(nz >= 1))
+      rep.bad(p + ".z", *block_tables[i]->get("z"), "is thinner than one particle spacing (" + spacing + ")",
+              "z_max - z_min >= spacing / 2");
+  }
+  for (const BlockParticles& c : particle_grid(cfg)) asked += c.count();
+  if (!(asked <= kMaxParticles))
+    rep.bad("sph.spacing", fmt_num(dp),
+            "makes the blocks ask for " + fmt_num_short(asked) + " particles (about " +
+                fmt_bytes(asked * kBytesPerParticle) + " of memory)",
+            "a spacing giving at most " + fmt_num_short(kMaxParticles) + " particles");
+
+  double c_max = 0;
+  for (std::size_t i = 0; i < cfg.materials.size(); ++i) {
+    const MaterialSpec& m = cfg.materials[i];
+    const std::string p = "materials[" + std::to_string(i) + "]";
+    const double K = 2.0 * m.shear_modulus * (1.0 + m.poisson_ratio) / (3.0 * (1.0 - 2.0 * m.poisson_ratio));
+    const double M = K + 4.0 / 3.0 * m.shear_modulus;
+    const double c = std::sqrt(M / m.density);
+    if (std::isfinite(c) && c > 0) {
+      c_max = std::max(c_max, c);
+      continue;
+    }
+    const toml::table& t = *material_tables[i];
+    const std::string why = "gives a P-wave speed sqrt((K + 4G/3) / rho) of " + fmt_num(c) + " m/s";
+    if (!std::isfinite(M)) rep.bad(p + ".G", *t.get("G"), why, "G (Pa) with a finite P-wave modulus K + 4G/3");
+    const char* key = t.get("density") ? "density" : "unit_weight";
+    rep.bad(p + "." + key, *t.get(key), why + " (density " + fmt_num(m.density) + " kg/m3)",
+            "a density giving a finite wave speed");
+  }
+  if (cfg.materials.empty()) return;
+  const double dt = cfg.run.cfl * cfg.sph.h_factor * dp / c_max;
+  if (!(std::isfinite(dt) && dt > 0))
+    rep.bad("run.cfl", fmt_num(cfg.run.cfl), "with " + spacing + " gives a stable step of " + fmt_num(dt) + " s",
+            "a cfl and spacing giving a positive time step");
+  const double steps = cfg.run.end_time / dt;
+  if (!(steps < 1e15))
+    rep.bad("run.end_time", fmt_num(cfg.run.end_time),
+            "asks for " + fmt_num_short(steps) + " steps of the stable step " + fmt_num(dt) + " s (run.cfl = " +
+                fmt_num(cfg.run.cfl) + ")",
+            "at most 1e15 steps");
+}
+
 Config build(const toml::table& root, const std::string& label) {
   const Reporter rep(label);
   Config cfg;
@@ -710,6 +787,7 @@ Config build(const toml::table& root, const std::string& label) {
   else if (const auto* p = top.find("pounder"))
     rep.bad("pounder", *p, "is only used with a [schedule]", "a [schedule] section, or no [pounder]");
   read_tracers(top, cfg);
+  check_runnable(rep, cfg, blocks, mats);
   return cfg;
 }
 

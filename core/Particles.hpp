@@ -56,6 +56,13 @@ enum ParticleFlag : int {
   X(flags, int, 1, 0, Saved, "ParticleFlag bits")                                                            \
   X(ghost_source, int, 1, 0, NotSaved, "ghosts: the particle this one mirrors")
 
+// The planar mass m / (2 pi r) of a particle ring, kg/m, with r floored at r_floor so that a
+// ring on the axis keeps a finite one; every particle uses the floor planar_mass_floor(dp).
+KOKKOS_INLINE_FUNCTION double planar_mass_of(double mass, double r, double r_floor) {
+  return mass / (2.0 * pi * math::max(r, r_floor));
+}
+inline double planar_mass_floor(double spacing) { return 1e-3 * spacing; }
+
 enum class FieldCheckpoint { Saved, SavedOptional, NotSaved };
 
 struct FieldInfo {

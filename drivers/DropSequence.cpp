@@ -103,8 +103,7 @@ DropSequence::DropSequence(Simulation& sim, const Config& cfg, std::string out)
   double top = -1e300;
   for (const auto& b : cfg_.blocks) top = std::max(top, b.z_max);
   ground_ = sch.ground_level != 0.0 ? sch.ground_level : top;
-  for (size_t k = 0; k < cfg_.materials.size(); ++k)
-    if (cfg_.materials[k].name == cfg_.backfill.material) backfill_material_ = static_cast<int>(k);
+  backfill_material_ = cfg_.backfill.material.empty() ? -1 : sim_.material_index(cfg_.backfill.material);
 
   stages_.push_back({StageKind::Relax, 0});
   for (size_t b = 1; b <= sch.drop_heights.size(); ++b) {

@@ -1,4 +1,6 @@
 #include "drivers/Simulation.hpp"
+#include "core/Format.hpp"
+#include "core/ParticleGrid.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -228,7 +230,7 @@ void fill_block(const Particles& P, const BlockGrid& g, double rho0, double dp, 
         v(i, 1) = vz0;
         rho(i) = rho0;
         mass(i) = rho0 * 2.0 * pi * r * dp * dp;
-        mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
+        mp(i) = planar_mass_of(mass(i), r, r_floor);
         matv(i) = mat;
       });
 }
@@ -254,20 +256,21 @@ void Simulation::build_particles() {
   const double dp = config_.sph.spacing;
   using Grid = BlockGrid;
   std::vector<Grid> grids;
+  int thin = -1;
+  const std::vector<BlockParticles> count = particle_grid(config_, &thin);  // core/ParticleGrid.hpp
+  if (thin >= 0)
+    throw std::invalid_argument("blocks[" + std::to_string(thin) + "] is thinner than one particle spacing");
+  double asked = 0;
+  for (const BlockParticles& c : count) asked += c.count();
+  if (!(asked <= kMaxParticles))
+    throw std::invalid_argument("the blocks ask for " + fmt_num(asked) + " particles; at most " +
+                                fmt_num(kMaxParticles) + " (32-bit particle indices)");
   int total = 0;
-  for (BlockSpec b : config_.blocks) {
-    if (config_.fem.enabled) {  // particles only inside the SPH zone; elements elsewhere
-      const FemSpec& f = config_.fem;
-      b.r_min = std::max(b.r_min, f.zone_r_min); b.r_max = std::min(b.r_max, f.zone_r_max);
-      b.z_min = std::max(b.z_min, f.zone_z_min); b.z_max = std::min(b.z_max, f.zone_z_max);
-      if (!(b.r_max - b.r_min > 0.5 * dp && b.z_max - b.z_min > 0.5 * dp)) continue;
-    }
-    const int mat = material_index(b.material);
-    if (mat < 0) throw std::invalid_argument("block refers to unknown material '" + b.material + "'");
-    const int nr = static_cast<int>(std::lround((b.r_max - b.r_min) / dp));
-    const int nz = static_cast<int>(std::lround((b.z_max - b.z_min) / dp));
-    if (nr < 1 || nz < 1) throw std::invalid_argument("block smaller than one particle spacing");
-    grids.push_back({nr, nz, total, mat, b});
+  for (const BlockParticles& c : count) {
+    const int mat = material_index(c.spec.material);
+    if (mat < 0) throw std::invalid_argument("block refers to unknown material '" + c.spec.material + "'");
+    const int nr = static_cast<int>(c.nr), nz = static_cast<int>(c.nz);
+    grids.push_back({nr, nz, total, mat, c.spec});
     total += nr * nz;
   }
   Particles& P = particles_;
@@ -275,7 +278,7 @@ void Simulation::build_particles() {
   P.n_real = total;
   P.n_total = total;
   P.fill_new(0, P.capacity);  // every field at a new particle's value (core/Particles.hpp)
-  const double r_floor = 1e-3 * dp;
+  const double r_floor = planar_mass_floor(dp);
   for (const Grid& g : grids) fill_block(P, g, materials_host_[g.mat].density, dp, r_floor);
   Kokkos::fence();
 }
@@ -408,7 +411,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   Kokkos::deep_copy(hr_dev, hr);
   Kokkos::deep_copy(hz_dev, hz);
   Kokkos::deep_copy(hm_dev, hm);
-  const double dp = config_.sph.spacing, r_floor = 1e-3 * dp;
+  const double dp = config_.sph.spacing, r_floor = planar_mass_floor(dp);
   P.fill_new(n0, n1);  // every field at a new particle's value (core/Particles.hpp), then:
   auto x = P.x; auto xr = P.x_ref; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
   auto mat = P.material;
@@ -423,7 +426,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
                             xr(i, 0) = r; xr(i, 1) = hz_dev(k);
                             rho(i) = rho0;
                             mass(i) = rho0 * 2.0 * pi * r * dp * dp;
-                            mp(i) = mass(i) / (2.0 * pi * math::max(r, r_floor));
+                            mp(i) = planar_mass_of(mass(i), r, r_floor);
                             mat(i) = hm_dev(k);
                             m_sum += mass(i);
                           },
@@ -529,7 +532,7 @@ void Simulation::drift(double dt) {
     Timed t(*this, &StepProfile::sph);
     drift_body(dt);
     Kokkos::parallel_for("tamp::drift", real_particles(),
-                         Drift(particles_, ghosts_.planes, non_reflecting_, dt, 1e-3 * config_.sph.spacing));
+                         Drift(particles_, ghosts_.planes, non_reflecting_, dt, planar_mass_floor(config_.sph.spacing)));
   }
   drift_elements(dt);
 }
@@ -1000,9 +1003,9 @@ void Simulation::load_state(const Checkpoint& c) {
 void Simulation::refresh_planar_mass() {
   Particles& P = particles_;
   auto x = P.x; auto m = P.mass; auto mp = P.planar_mass;
-  const double r_floor = 1e-3 * config_.sph.spacing;
+  const double r_floor = planar_mass_floor(config_.sph.spacing);
   Kokkos::parallel_for("tamp::planar_mass", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), KOKKOS_LAMBDA(int i) {
-    mp(i) = m(i) / (2.0 * pi * math::max(x(i, 0), r_floor));
+    mp(i) = planar_mass_of(m(i), x(i, 0), r_floor);
   });
 }
 
@@ -1068,7 +1071,7 @@ void Simulation::sync_tie_kinematics() {
   Kokkos::parallel_for("tamp::tie::kinematics", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                        SyncTieKinematics{P.x, P.v, P.mass, P.planar_mass, P.rho, P.material, P.flags, tie_.element,
                                          tie_.parent, tie_.follow, tie_.planar_mass, tie_.material, P.n_real, mesh.x, mesh.x0, mesh.v,
-                                         mesh.conn, mesh.elem_mass, mesh.volume, 1e-3 * config_.sph.spacing});
+                                         mesh.conn, mesh.elem_mass, mesh.volume, planar_mass_floor(config_.sph.spacing)});
 }
 
 void Simulation::sync_tie_stress() {

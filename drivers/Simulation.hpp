@@ -106,6 +106,7 @@ class Simulation {
   const Config& config() const { return config_; }
   Particles& particles() { return particles_; }
   const std::vector<MaterialParams>& materials() const { return materials_host_; }
+  int material_index(const std::string& name) const;  // index in the deck's materials, -1: none
 
   Energies energies() const;
   // Per deck material: kinetic, internal, gravitational and elastic strain energy.
@@ -189,7 +190,6 @@ class Simulation {
 
  private:
   void build_materials();
-  int material_index(const std::string& name) const;  // index in the deck's materials, -1: none
   void build_particles();
   void refresh_neighbours(bool force);
   void rebuild_lists();  // forced neighbour rebuild + pair kernel factors

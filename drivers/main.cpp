@@ -10,6 +10,7 @@
 #include <Kokkos_Core.hpp>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -19,6 +20,8 @@
 #include <sstream>
 
 #include "core/Deck.hpp"
+#include "core/Format.hpp"
+#include "core/ParticleGrid.hpp"
 #include "core/Log.hpp"
 #include "core/Output.hpp"
 #include "drivers/DropSequence.hpp"
@@ -133,21 +136,63 @@ int run_sequence(const Config& cfg, Simulation& sim, const std::string& out, con
   return 0;
 }
 
+// A model must fit in this machine's memory: the particle count of the deck (counted before
+// anything is allocated, core/ParticleGrid.hpp) against MemAvailable of /proc/meminfo
+// (host memory; a GPU build would need the device's). Throws DeckError (exit 2).
+void check_memory(const Config& cfg, const std::string& deck) {
+  double particles = 0;
+  for (const auto& b : tamp::particle_grid(cfg)) particles += b.count();
+  const double need = particles * tamp::kBytesPerParticle;
+  std::ifstream info("/proc/meminfo");
+  std::string key;
+  double kb = 0;
+  while (info >> key >> kb) {
+    if (key == "MemAvailable:") break;
+    info.ignore(256, '\n');
+    kb = 0;
+  }
+  const double have = kb * 1024.0;
+  if (have > 0 && need > have)
+    throw DeckError(deck + ": sph.spacing = " + tamp::fmt_num(cfg.sph.spacing) + " asks for " + fmt("%.3g", particles) +
+                    " particles, about " + fmt("%.3g", need / 1e9) + " GB of memory; this machine has " +
+                    fmt("%.3g", have / 1e9) + " GB available (allowed: a larger spacing or smaller blocks)");
+}
+
 int cmd_check(const std::string& deck) {
   Config cfg = load_deck(deck);
+  check_memory(cfg, deck);
   Simulation sim(cfg);
   print_plan(cfg, sim, std::cout);
   std::cout << "deck is valid\n";
   return 0;
 }
 
+// One --set KEY=VALUE: the value must be a finite number written in full ("12abc", "abc"
+// and "1e999" are refused, naming the option).
+std::pair<std::string, double> parse_set(const std::string& s) {
+  const auto eq = s.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw std::invalid_argument("--set '" + s + "': expected KEY=VALUE, e.g. clay.Su=12000");
+  const std::string text = s.substr(eq + 1);
+  std::size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size() || !std::isfinite(value))
+    throw std::invalid_argument("--set '" + s + "': the value '" + text + "' is not a finite number");
+  return {s.substr(0, eq), value};
+}
+
 int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart,
             int stop_after, const std::vector<std::string>& sets) {
   Config cfg = load_deck(deck);  // validated before any work
+  check_memory(cfg, deck);
   for (const auto& s : sets) {   // --set material.key=value (e.g. clay.crush_pressure=30000)
-    const auto eq = s.find('=');
-    if (eq == std::string::npos) throw std::invalid_argument("--set '" + s + "': expected KEY=VALUE, e.g. clay.Su=12000");
-    tamp::set_param(cfg, s.substr(0, eq), std::stod(s.substr(eq + 1)));
+    const auto [key, value] = parse_set(s);
+    tamp::set_param(cfg, key, value);
   }
   tamp::Checkpoint resume;
   if (!restart.empty()) {
@@ -339,9 +384,8 @@ int cmd_synth(const std::string& deck, const std::string& effect, const std::vec
   }
   std::map<std::string, double> overrides;
   for (const auto& s : sets) {
-    const auto eq = s.find('=');
-    if (eq == std::string::npos) throw std::invalid_argument("--set '" + s + "': expected KEY=VALUE, e.g. clay.Su=12000");
-    overrides[s.substr(0, eq)] = std::stod(s.substr(eq + 1));
+    const auto [key, value] = parse_set(s);
+    overrides[key] = value;
   }
   tamp::apply_effect(cfg, material, effect, overrides);
   std::string description = "effect " + effect;

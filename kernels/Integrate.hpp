@@ -62,7 +62,7 @@ struct Drift {
     for (int k = 0; k < walls.count; ++k) reflect(i, walls.plane[k]);
     for (int k = 0; k < open_planes.count; ++k)
       if (!(flags(i) & (FLAG_HELD_BOUNDARY << k))) reflect(i, open_planes.plane[k]);
-    planar_mass(i) = mass(i) / (2.0 * pi * math::max(x(i, 0), r_floor));
+    planar_mass(i) = planar_mass_of(mass(i), x(i, 0), r_floor);
   }
 };
 

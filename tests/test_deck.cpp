@@ -293,7 +293,8 @@ TEST_CASE("Deck: to_toml round trip gives the same Config", "[deck]") {
     t.cohesion = 12345.6;
     a.materials.push_back(t);
     a.blocks.push_back({"clay", 0.0, 0.7, -0.25, 1e-3, 0.1, -2.0 / 7.0});
-    a.blocks.push_back({m.name, 0.1, 0.2, 5.0, 6.0, 0.0, 0.0});
+    // at least one particle (spacing 1/3 m) across, or validation refuses the model
+    a.blocks.push_back({m.name, 0.1, 0.6, 5.0, 6.0, 0.0, 0.0});
     a.bottom = {WallType::Roller, -0.25};
     a.top = {WallType::Fixed, 2.0};
     a.outer = {WallType::None, 0.0};
@@ -655,4 +656,40 @@ TEST_CASE("Deck: [fem] parses, validates and round-trips", "[deck][fem]") {
   require_error(bad.text(), {"fem.sph_zone", "r = [r_min, r_max]"});
   bad.rest = "[fem]\ngrading = 2\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
   require_error(bad.text(), {"fem.grading", "2"});
+}
+
+TEST_CASE("Deck: a model that cannot run is refused, naming the key", "[deck]") {
+  // Issue 13's reproducers 1, 3 and 4: each was accepted (or crashed the generator).
+  SECTION("1e11 particles: counted in 64 bits") {
+    Parts p;
+    p.sph = "[sph]\nspacing = 1e-6\n";
+    p.blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0, 0.3]\nz = [0, 0.5]\n";
+    require_error(p.text(), {"sph.spacing = 1e-06", "1.5e+11 particles", "at most 1e+09"});
+  }
+  SECTION("a count that wraps a 32-bit int to 65 536") {
+    Parts p;
+    p.sph = "[sph]\nspacing = 1e-5\n";
+    p.blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0, 0.65536]\nz = [0, 0.65537]\n";
+    require_error(p.text(), {"sph.spacing = 1e-05", "4.3e+09 particles"});
+  }
+  SECTION("an infinite wave speed from G") {
+    Parts p;
+    p.materials = "[[materials]]\nname = \"soil\"\nmodel = \"elastic\"\ndensity = 2000\nG = 1e308\nnu = 0.3\n";
+    require_error(p.text(), {"materials[0].G = 1e+308", "P-wave speed", "inf"});
+  }
+  SECTION("a zero density from a denormal unit weight") {
+    Parts p;
+    p.materials = "[[materials]]\nname = \"soil\"\nmodel = \"elastic\"\nunit_weight = 5e-324\nG = 1e6\nnu = 0.3\n";
+    require_error(p.text(), {"materials[0].unit_weight = 5e-324", "density 0 kg/m3"});
+  }
+  SECTION("a zero stable step from the CFL number") {
+    Parts p;
+    p.top = "[run]\ncfl = 5e-324\n";
+    require_error(p.text(), {"run.cfl = 5e-324", "stable step of 0 s"});
+  }
+  SECTION("a block thinner than one spacing") {
+    Parts p;
+    p.blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0.0, 1e-6]\nz = [0, 1]\n";
+    require_error(p.text(), {"blocks[0].r = [0.0, 1e-06]", "thinner than one particle spacing"});
+  }
 }

@@ -9,6 +9,8 @@
 #include <map>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "core/Log.hpp"
 
 namespace tamp {
@@ -764,16 +766,9 @@ void DropSequence::write_tables(double wall_s) const {
   std::vector<std::vector<double>> crow;
   for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m});
   write_csv(out_ + "/column.csv", {"depth_m", "diameter_m"}, crow);
-  std::ofstream js(out_ + "/summary.json");
-  js << "{\n";
-  const auto items = summary(wall_s);
-  for (size_t k = 0; k < items.size(); ++k) {
-    char buf[128];
-    std::snprintf(buf, sizeof buf, "  \"%s\": %.9g%s\n", items[k].first.c_str(), items[k].second,
-                  k + 1 < items.size() ? "," : "");
-    js << buf;
-  }
-  js << "}\n";
+  nlohmann::ordered_json js;  // every number to full (round-trip) precision; NaN as null
+  for (const auto& [key, value] : summary(wall_s)) js[key] = value;
+  std::ofstream(out_ + "/summary.json") << js.dump(2) << "\n";
 }
 
 std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s) const {

@@ -2,7 +2,9 @@
 #include "models/MaterialModel.hpp"
 
 #include <Eigen/Dense>
+#include <nlohmann/json.hpp>
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -48,25 +50,31 @@ RunOutputs run_forward(const Config& cfg, const std::string& dir) {
   return o;
 }
 
+// A finished run folder: summary.json (a JSON object of numbers; null for a quantity the run
+// could not measure) and blows.csv (a header, then numbers). A damaged file is an error
+// naming the file and, for the table, the row and column, never a silent zero.
 RunOutputs read_run_dir(const std::string& dir) {
   RunOutputs o;
-  std::ifstream js(dir + "/summary.json");
-  if (!js) throw std::invalid_argument(dir + "/summary.json does not exist (is '" + dir + "' a finished tamp run?)");
-  std::stringstream ss;
-  ss << js.rdbuf();
-  const std::string text = ss.str();
-  size_t at = 0;
-  while ((at = text.find('"', at)) != std::string::npos) {
-    const size_t end = text.find('"', at + 1);
-    if (end == std::string::npos) break;
-    const std::string key = text.substr(at + 1, end - at - 1);
-    const size_t colon = text.find(':', end);
-    if (colon == std::string::npos) break;
-    o.summary[key] = std::strtod(text.c_str() + colon + 1, nullptr);
-    at = colon + 1;
+  const std::string summary = dir + "/summary.json";
+  std::ifstream js(summary);
+  if (!js) throw std::invalid_argument(summary + " does not exist (is '" + dir + "' a finished tamp run?)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(js);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw std::invalid_argument(summary + " is not valid JSON (" + e.what() + ")");
   }
-  std::ifstream bl(dir + "/blows.csv");
-  if (!bl) throw std::invalid_argument(dir + "/blows.csv does not exist");
+  if (!j.is_object() || j.empty())
+    throw std::invalid_argument(summary + " is not a JSON object of the run's quantities (found " +
+                                std::string(j.type_name()) + ")");
+  for (const auto& [key, value] : j.items()) {
+    if (value.is_number()) o.summary[key] = value.get<double>();
+    else if (value.is_null()) o.summary[key] = std::numeric_limits<double>::quiet_NaN();
+    else throw std::invalid_argument(summary + ": \"" + key + "\" is " + value.dump() + "; allowed: a number or null");
+  }
+  const std::string table = dir + "/blows.csv";
+  std::ifstream bl(table);
+  if (!bl) throw std::invalid_argument(table + " does not exist");
   std::string line;
   std::getline(bl, line);
   std::vector<std::string> header;
@@ -74,11 +82,22 @@ RunOutputs read_run_dir(const std::string& dir) {
     std::stringstream hs(line);
     for (std::string h; std::getline(hs, h, ',');) header.push_back(h);
   }
-  while (std::getline(bl, line)) {
+  if (header.empty()) throw std::invalid_argument(table + " has no header row");
+  for (int row_no = 2; std::getline(bl, line); ++row_no) {
     std::stringstream ls(line);
     std::map<std::string, double> row;
     size_t k = 0;
-    for (std::string cell; std::getline(ls, cell, ',') && k < header.size(); ++k) row[header[k]] = std::stod(cell);
+    for (std::string cell; std::getline(ls, cell, ',') && k < header.size(); ++k) {
+      double x = 0;
+      const auto res = std::from_chars(cell.data(), cell.data() + cell.size(), x);
+      if (res.ec != std::errc() || res.ptr != cell.data() + cell.size() || !std::isfinite(x))
+        throw std::invalid_argument(table + " row " + std::to_string(row_no) + ", column " + header[k] + ": '" + cell +
+                                    "' is not a finite number");
+      row[header[k]] = x;
+    }
+    if (k != header.size())
+      throw std::invalid_argument(table + " row " + std::to_string(row_no) + " has " + std::to_string(k) + " cells; the header has " +
+                                  std::to_string(header.size()));
     o.blows.push_back(row);
   }
   return o;
@@ -202,18 +221,21 @@ std::string residual_table(const std::vector<Residual>& r) {
 }
 
 std::string residuals_json(const std::vector<Residual>& r) {
-  std::ostringstream o;
-  o << "{\n  \"error\": " << fmt_g(rms(r), "%.9g") << ",\n  \"observations\": [\n";
-  for (size_t k = 0; k < r.size(); ++k) {
-    const Observation& ob = *r[k].obs;
-    o << "    {\"quantity\": \"" << ob.quantity << "\", \"blow\": " << ob.blow << ", \"value\": " << fmt_g(ob.value, "%.9g")
-      << ", \"sigma\": " << fmt_g(ob.sigma, "%.9g") << ", \"model\": "
-      << (std::isfinite(r[k].model) ? fmt_g(r[k].model, "%.9g") : std::string("null"))
-      << ", \"normalised_residual\": " << fmt_g(r[k].normalised, "%.9g") << "}" << (k + 1 < r.size() ? "," : "")
-      << "\n";
+  nlohmann::ordered_json j;
+  j["error"] = rms(r);
+  j["observations"] = nlohmann::ordered_json::array();
+  for (const Residual& x : r) {
+    const Observation& ob = *x.obs;
+    nlohmann::ordered_json e;
+    e["quantity"] = ob.quantity;
+    e["blow"] = ob.blow;
+    e["value"] = ob.value;
+    e["sigma"] = ob.sigma;
+    e["model"] = x.model;  // NaN (not produced) is written as null
+    e["normalised_residual"] = x.normalised;
+    j["observations"].push_back(e);
   }
-  o << "  ]\n}\n";
-  return o.str();
+  return j.dump(2) + "\n";
 }
 
 // ------------------------------------------------------------------ calibration
@@ -440,18 +462,20 @@ void apply_effect(Config& cfg, const std::string& material, const std::string& e
 // ------------------------------------------------------------------ diagnosis
 
 namespace {
-std::string fit_json(const std::string& name, const FitResult& f) {
-  std::ostringstream o;
-  o << "{\"effect\": \"" << name << "\", \"chi2\": " << fmt_g(f.chi2, "%.9g") << ", \"error\": " << fmt_g(f.error, "%.9g")
-    << ", \"bic\": " << fmt_g(f.bic(), "%.9g") << ", \"runs\": " << f.runs << ", \"parameters\": {";
-  for (size_t j = 0; j < f.names.size(); ++j)
-    o << (j ? ", " : "") << "\"" << f.names[j] << "\": {\"value\": " << fmt_g(f.values[j], "%.9g")
-      << ", \"sigma\": " << fmt_g(f.sigmas[j], "%.9g") << "}";
+nlohmann::ordered_json fit_json(const std::string& name, const FitResult& f) {
+  nlohmann::ordered_json j;
+  j["effect"] = name;
+  j["chi2"] = f.chi2;
+  j["error"] = f.error;
+  j["bic"] = f.bic();
+  j["runs"] = f.runs;
+  j["parameters"] = nlohmann::ordered_json::object();
+  for (size_t k = 0; k < f.names.size(); ++k) j["parameters"][f.names[k]] = {{"value", f.values[k]}, {"sigma", f.sigmas[k]}};
   const auto hv = f.outputs.summary.find("heave_volume_m3"), av = f.outputs.summary.find("aggregate_volume_below_ground_m3");
   double ratio = std::numeric_limits<double>::quiet_NaN();
   if (hv != f.outputs.summary.end() && av != f.outputs.summary.end() && av->second > 0) ratio = hv->second / av->second;
-  o << "}, \"heave_to_column_volume\": " << (std::isfinite(ratio) ? fmt_g(ratio, "%.6g") : std::string("null")) << "}";
-  return o.str();
+  j["heave_to_column_volume"] = ratio;  // null when not measured
+  return j;
 }
 }  // namespace
 
@@ -561,14 +585,16 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
       selected = name;
       chosen = &f;
     }
-  std::ofstream js(out_dir + "/diagnosis.json");
-  js << "{\n  \"data\": \"" << data.file << "\",\n  \"selected_effect\": \"" << selected << "\",\n  \"error_before\": "
-     << fmt_g(baseline.error, "%.9g") << ",\n  \"error_after\": " << fmt_g(chosen->error, "%.9g")
-     << ",\n  \"bic_margin\": " << opt.bic_margin << ",\n  \"baseline\": " << fit_json("none", baseline)
-     << ",\n  \"candidates\": [\n";
-  for (size_t k = 0; k < fits.size(); ++k)
-    js << "    " << fit_json(fits[k].first, fits[k].second) << (k + 1 < fits.size() ? "," : "") << "\n";
-  js << "  ]\n}\n";
+  nlohmann::ordered_json js;
+  js["data"] = data.file;
+  js["selected_effect"] = selected;
+  js["error_before"] = baseline.error;
+  js["error_after"] = chosen->error;
+  js["bic_margin"] = opt.bic_margin;
+  js["baseline"] = fit_json("none", baseline);
+  js["candidates"] = nlohmann::ordered_json::array();
+  for (const auto& [name, fit] : fits) js["candidates"].push_back(fit_json(name, fit));
+  std::ofstream(out_dir + "/diagnosis.json") << js.dump(2) << "\n";
 
   std::ofstream md(out_dir + "/report.md");
   md << "# Diagnosis of " << data.file << "\n\nScenario: `" << data.scenario << "`, target material `" << mat << "`, "

@@ -8,6 +8,7 @@
 // writes DIR/checkpoint.h5, the last good restartable state.
 #include <CLI/CLI.hpp>
 #include <Kokkos_Core.hpp>
+#include <nlohmann/json.hpp>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -324,6 +325,15 @@ int cmd_compare(const std::string& data_path, const std::string& run_dir) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
   const tamp::RunOutputs run = tamp::read_run_dir(run_dir);
   const auto res = tamp::residuals(data, run);
+  // A quantity the data has and the run folder lacks is a damaged or unfinished run, not a
+  // 100-sigma misfit (that penalty is for forward runs inside a fit).
+  std::string missing;
+  for (const auto& r : res)
+    if (!std::isfinite(r.model))
+      missing += (missing.empty() ? "" : ", ") + r.obs->quantity + (r.obs->blow > 0 ? " (blow " + std::to_string(r.obs->blow) + ")" : "");
+  if (!missing.empty())
+    throw std::invalid_argument(run_dir + " has no value for " + missing +
+                                " (summary.json / blows.csv); is it a finished run of " + data_path + "'s scenario?");
   std::cout << "data: " << data_path << "\nrun:  " << run_dir << "\n\n" << tamp::residual_table(res);
   std::ofstream(run_dir + "/residuals.json") << tamp::residuals_json(res);
   std::cout << "written: " << run_dir << "/residuals.json\n";
@@ -345,14 +355,16 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
   opt.method = method;
   const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
   const tamp::FitResult f = tamp::calibrate(cfg, data, names, opt);
-  std::ostringstream js;
-  js << "{\n  \"parameters\": {";
+  nlohmann::ordered_json js;
+  js["parameters"] = nlohmann::ordered_json::object();
   for (size_t j = 0; j < f.names.size(); ++j) {
-    js << (j ? ", " : "") << "\"" << f.names[j] << "\": {\"value\": " << f.values[j] << ", \"sigma\": " << f.sigmas[j] << "}";
+    js["parameters"][f.names[j]] = {{"value", f.values[j]}, {"sigma", f.sigmas[j]}};
     std::cout << f.names[j] << " = " << f.values[j] << " +- " << f.sigmas[j] << "\n";
   }
-  js << "},\n  \"chi2\": " << f.chi2 << ",\n  \"error\": " << f.error << ",\n  \"runs\": " << f.runs << "\n}\n";
-  std::ofstream(out + "/calibration.json") << js.str();
+  js["chi2"] = f.chi2;
+  js["error"] = f.error;
+  js["runs"] = f.runs;
+  std::ofstream(out + "/calibration.json") << js.dump(2) << "\n";
   std::ofstream(out + "/residuals.json") << tamp::residuals_json(f.residuals);
   std::cout << tamp::residual_table(f.residuals) << "forward runs: " << f.runs << "; written: " << out << "/calibration.json\n";
   return 0;

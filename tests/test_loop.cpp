@@ -145,3 +145,45 @@ TEST_CASE("Loop: shifted baseline parameters without an effect give 'none'", "[.
   const Outcome o = undeclared("none", "none", {{"clay.Su", 12.5e3}}, 13);
   CHECK(o.selected == "none");
 }
+
+TEST_CASE("Loop: a damaged run folder is an error naming the file, row and column", "[loop]") {
+  // Issue 13's reproducer 6: an empty, garbage, [] or truncated summary.json was read as
+  // zeros (and `tamp compare` exited 0), a blows.csv cell "abc" gave "stod", "12abc" was 12.
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "tamp-test-damaged-run";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  auto write = [&](const char* name, const std::string& text) { std::ofstream(dir / name) << text; };
+  auto error = [&]() {
+    try {
+      tamp::read_run_dir(dir.string());
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string good_csv = "blow,crater_depth_m\n1,0.05\n2,0.08\n";
+  write("blows.csv", good_csv);
+  write("summary.json", "{\"uplift_m\": 0.012, \"column_length_m\": null}");
+  const RunOutputs ok = tamp::read_run_dir(dir.string());
+  CHECK(ok.summary.at("uplift_m") == 0.012);
+  CHECK(std::isnan(ok.summary.at("column_length_m")));  // null: not measured
+  CHECK(ok.blows.at(1).at("crater_depth_m") == 0.08);
+  for (const char* bad : {"", "garbage{", "{\"uplift_m\": 0.0"}) {
+    write("summary.json", bad);
+    CHECK_THAT(error(), Catch::Contains("summary.json is not valid JSON"));
+  }
+  write("summary.json", "[]");
+  CHECK_THAT(error(), Catch::Contains("summary.json is not a JSON object"));
+  write("summary.json", "{\"uplift_m\": \"12\"}");
+  CHECK_THAT(error(), Catch::Contains("\"uplift_m\" is \"12\"; allowed: a number or null"));
+  write("summary.json", "{\"uplift_m\": 0.012}");
+  for (const char* cell : {"abc", "12abc", "1e999"}) {
+    write("blows.csv", std::string("blow,crater_depth_m\n1,0.05\n2,") + cell + "\n");
+    CHECK_THAT(error(), Catch::Contains("blows.csv row 3, column crater_depth_m: '" + std::string(cell) +
+                                        "' is not a finite number"));
+  }
+  write("blows.csv", "blow,crater_depth_m\n1\n");
+  CHECK_THAT(error(), Catch::Contains("blows.csv row 2 has 1 cells; the header has 2"));
+  fs::remove_all(dir);
+}

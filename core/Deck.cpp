@@ -148,9 +148,25 @@ using namespace ranges;
 
 // ---------------------------------------------------------------- error reporting
 
+// A file name as a one-line message can show it: control characters (a newline in a name)
+// escaped as \xNN.
+std::string printable(const std::string& name) {
+  std::string out;
+  for (const unsigned char c : name) {
+    if (c >= 0x20 && c != 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  return out;
+}
+
 class Reporter {
  public:
-  explicit Reporter(std::string file) : file_(std::move(file)) {}
+  explicit Reporter(const std::string& file) : file_(printable(file)) {}
 
   // "<file>: <path> = <value> <problem>; allowed: <allowed>"
   [[noreturn]] void bad(const std::string& path, const std::string& value, const std::string& problem,
@@ -480,15 +496,18 @@ BlockSpec read_block(const Table& b, const std::vector<MaterialSpec>& materials)
   for (const auto& m : materials) found = found || m.name == blk.material;
   if (!found) b.rep().bad(b.path("material"), *b.find("material"), "is not a known material", join(names, ", "));
 
-  const std::string r_shape = "[r_min, r_max] with 0 <= r_min < r_max (m)";
+  // Coordinates within 10 km of the origin: a model of a lab or a site, and no extent whose
+  // particle or element count overflows before validation can count it.
+  constexpr double far = 1e4;
+  const std::string r_shape = "[r_min, r_max] with 0 <= r_min < r_max <= 1e4 (m)";
   const auto r = opt_pair(b, "r", r_shape);
   if (!r) b.rep().missing(b.path("r"), r_shape);
-  if (!((*r)[0] >= 0 && (*r)[0] < (*r)[1])) b.rep().out_of_range(b.path("r"), *b.find("r"), r_shape);
+  if (!((*r)[0] >= 0 && (*r)[0] < (*r)[1] && (*r)[1] <= far)) b.rep().out_of_range(b.path("r"), *b.find("r"), r_shape);
 
-  const std::string z_shape = "[z_min, z_max] with z_min < z_max (m)";
+  const std::string z_shape = "[z_min, z_max] with -1e4 <= z_min < z_max <= 1e4 (m)";
   const auto z = opt_pair(b, "z", z_shape);
   if (!z) b.rep().missing(b.path("z"), z_shape);
-  if (!((*z)[0] < (*z)[1])) b.rep().out_of_range(b.path("z"), *b.find("z"), z_shape);
+  if (!((*z)[0] < (*z)[1] && (*z)[0] >= -far && (*z)[1] <= far)) b.rep().out_of_range(b.path("z"), *b.find("z"), z_shape);
 
   const auto v = opt_pair(b, "velocity", "[v_r, v_z] (m/s)");
   blk.r_min = (*r)[0];
@@ -614,9 +633,9 @@ void read_fem(const Table& top, Config& cfg) {
   for (const auto& b : cfg.blocks) {
     const bool cuts = f.zone_r_max > b.r_min && f.zone_r_min < b.r_max && f.zone_z_max > b.z_min && f.zone_z_min < b.z_max;
     if (!cuts) continue;
-    if (!on_grid(f.zone_r_max, b.r_min) || !on_grid(f.zone_z_min, b.z_min) || !on_grid(f.zone_z_max, b.z_min))
-      z.rep().out_of_range(z.path("r"), *z.find("r"),
-                           "zone edges at whole particle spacings (" + fmt_num(dp) + " m) from the corner of each block it cuts");
+    const std::string grid = "zone edges at whole particle spacings (" + fmt_num(dp) + " m) from the corner of each block it cuts";
+    if (!on_grid(f.zone_r_max, b.r_min)) z.rep().out_of_range(z.path("r"), *z.find("r"), grid);
+    if (!on_grid(f.zone_z_min, b.z_min) || !on_grid(f.zone_z_max, b.z_min)) z.rep().out_of_range(z.path("z"), *z.find("z"), grid);
   }
 }
 
@@ -821,14 +840,14 @@ Config parse_deck(const std::string& toml_text, const std::string& file_label) {
     root = toml::parse(toml_text, file_label);
   } catch (const toml::parse_error& e) {
     const auto& b = e.source().begin;
-    throw DeckError(file_label + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
+    throw DeckError(printable(file_label) + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
                     std::to_string(b.column) + ": " + std::string(e.description()));
   }
 #else
   toml::parse_result res = toml::parse(toml_text, file_label);
   if (!res) {
     const auto& b = res.error().source().begin;
-    throw DeckError(file_label + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
+    throw DeckError(printable(file_label) + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
                     std::to_string(b.column) + ": " + std::string(res.error().description()));
   }
   root = std::move(res).table();
@@ -839,13 +858,13 @@ Config parse_deck(const std::string& toml_text, const std::string& file_label) {
 Config load_deck(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw DeckError(path + ": the deck file does not exist");
-  if (fs::is_directory(path, ec)) throw DeckError(path + ": is a directory, not a deck file");
+  if (!fs::exists(path, ec)) throw DeckError(printable(path) + ": the deck file does not exist");
+  if (fs::is_directory(path, ec)) throw DeckError(printable(path) + ": is a directory, not a deck file");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw DeckError(path + ": cannot open the deck file (" + std::strerror(errno) + ")");
+  if (!in) throw DeckError(printable(path) + ": cannot open the deck file (" + std::strerror(errno) + ")");
   std::ostringstream text;
   text << in.rdbuf();
-  if (in.bad()) throw DeckError(path + ": cannot read the deck file");
+  if (in.bad()) throw DeckError(printable(path) + ": cannot read the deck file");
   return parse_deck(text.str(), path);
 }
 

@@ -155,8 +155,8 @@ void Simulation::build_fem() {
   auto wall = [&](const WallSpec& w, const char* name, fem::FemSide side, double edge, int axis, int soil_side) {
     if (w.type == WallType::None) return;
     if (std::fabs(w.position - edge) > 1e-9)
-      throw std::invalid_argument(std::string("boundaries.") + name + " at " + std::to_string(w.position) +
-                                  " m is not on the edge of the element mesh (" + std::to_string(edge) +
+      throw std::invalid_argument(std::string("boundaries.") + name + " at " + fmt_num(w.position) +
+                                  " m is not on the edge of the element mesh (" + fmt_num(edge) +
                                   " m): with [fem] the walls bound the blocks");
     if (w.type == WallType::Fixed) m.set_side(side, fem::FemBc::Fixed);
     else if (w.type == WallType::Roller) m.set_side(side, fem::FemBc::Roller);
@@ -202,39 +202,6 @@ void Simulation::build_materials() {
 // allow extended lambdas in private member functions, nor local types in their captures.
 namespace {
 
-struct BlockGrid { int nr, nz, first, mat; BlockSpec b; };
-
-// Fills block g of a regular grid of spacing dp (one kernel launch).
-void fill_block(const Particles& P, const BlockGrid& g, double rho0, double dp, double r_floor) {
-  auto x = P.x; auto v = P.v; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
-  auto matv = P.material;
-  const int first = g.first, nr = g.nr, nz = g.nz, mat = g.mat;
-  const double r_min = g.b.r_min, z_min = g.b.z_min;
-  const double vr0 = g.b.velocity_r, vz0 = g.b.velocity_z;
-  Kokkos::parallel_for(
-      "tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, g.nr * g.nz), KOKKOS_LAMBDA(int k) {
-        const int i = first + k;
-        // Strip order: vertical strips of `strip` columns, each filled row by row, so that
-        // the neighbours of a particle are at most ~3 strip widths away in memory (the
-        // row-major order put them a whole row apart: 30-40 % slower at 160k particles).
-        constexpr int strip = 32;
-        const int s = k / (strip * nz);
-        const int width = (s + 1) * strip <= nr ? strip : nr - s * strip;
-        const int kk = k - s * strip * nz;
-        const int ir = s * strip + kk % width, iz = kk / width;
-        const double r = r_min + (ir + 0.5) * dp;
-        const double z = z_min + (iz + 0.5) * dp;
-        x(i, 0) = r;
-        x(i, 1) = z;
-        v(i, 0) = vr0;
-        v(i, 1) = vz0;
-        rho(i) = rho0;
-        mass(i) = rho0 * 2.0 * pi * r * dp * dp;
-        mp(i) = planar_mass_of(mass(i), r, r_floor);
-        matv(i) = mat;
-      });
-}
-
 // max_i |x_i - x_ref_i|^2 over the first n particles.
 double max_displacement_sq(const ViewN<double, 2>& x, const ViewN<double, 2>& xr, int n) {
   double dmax = 0;
@@ -254,8 +221,7 @@ double max_displacement_sq(const ViewN<double, 2>& x, const ViewN<double, 2>& xr
 // mass m = rho0 * 2 pi r * dp^2. One kernel launch per block.
 void Simulation::build_particles() {
   const double dp = config_.sph.spacing;
-  using Grid = BlockGrid;
-  std::vector<Grid> grids;
+  Particles& P = particles_;
   int thin = -1;
   const std::vector<BlockParticles> count = particle_grid(config_, &thin);  // core/ParticleGrid.hpp
   if (thin >= 0)
@@ -265,21 +231,25 @@ void Simulation::build_particles() {
   if (!(asked <= kMaxParticles))
     throw std::invalid_argument("the blocks ask for " + fmt_num(asked) + " particles; at most " +
                                 fmt_num(kMaxParticles) + " (32-bit particle indices)");
+  std::vector<int> mats;
   int total = 0;
   for (const BlockParticles& c : count) {
     const int mat = material_index(c.spec.material);
     if (mat < 0) throw std::invalid_argument("block refers to unknown material '" + c.spec.material + "'");
-    const int nr = static_cast<int>(c.nr), nz = static_cast<int>(c.nz);
-    grids.push_back({nr, nz, total, mat, c.spec});
-    total += nr * nz;
+    mats.push_back(mat);
+    total += static_cast<int>(c.count());
   }
-  Particles& P = particles_;
   P.reserve(total + total / 2 + 64);
   P.n_real = total;
   P.n_total = total;
   P.fill_new(0, P.capacity);  // every field at a new particle's value (core/Particles.hpp)
-  const double r_floor = planar_mass_floor(dp);
-  for (const Grid& g : grids) fill_block(P, g, materials_host_[g.mat].density, dp, r_floor);
+  int first = 0;
+  for (size_t k = 0; k < count.size(); ++k) {  // kernels/ParticleGenerator.hpp, one launch per block
+    const int nr = static_cast<int>(count[k].nr), nz = static_cast<int>(count[k].nz);
+    const FillBlock fill(P, first, nr, nz, mats[k], count[k].spec, materials_host_[mats[k]].density, dp);
+    Kokkos::parallel_for("tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, fill.count()), fill);
+    first += nr * nz;
+  }
   Kokkos::fence();
 }
 
@@ -674,61 +644,28 @@ double Simulation::accounted_energy() const {
          ledger_.wall_friction_J - ledger_.artificial_stress_J;
 }
 
-namespace {
-// Horizontal layers (from the blocks) for the geostatic stress kernel; at namespace scope
-// because CUDA lambdas cannot capture function-local types.
-struct GeostaticLayers {
-  static constexpr int max_layers = 16;
-  double z_bot[max_layers], z_top[max_layers], gamma[max_layers];
-  int n = 0;
-  // sigma_zz at height z: minus the weight of the layers above per unit area, Pa
-  KOKKOS_INLINE_FUNCTION double sigma_v(double z) const {
-    double sv = 0;
-    for (int k = 0; k < n; ++k) {
-      const double lo = math::max(z, z_bot[k]);
-      if (z_top[k] > lo) sv -= gamma[k] * (z_top[k] - lo);
-    }
-    return sv;
-  }
-};
-}  // namespace
-
 void Simulation::set_geostatic_stress(double k0) {
-  GeostaticLayers layers;
-  constexpr int max_layers = GeostaticLayers::max_layers;
-  for (const auto& b : config_.blocks) {
-    if (layers.n == max_layers) throw std::invalid_argument("set_geostatic_stress: more than 16 blocks");
+  // the layers: the deck's blocks (kernels/Geostatic.hpp)
+  GeostaticLayers<> layers;
+  layers.n = static_cast<int>(config_.blocks.size());
+  layers.layer = LayerView("tamp::geostatic_layers", config_.blocks.size());
+  auto layer_h = Kokkos::create_mirror_view(layers.layer);
+  for (int k = 0; k < layers.n; ++k) {
+    const BlockSpec& b = config_.blocks[k];
     const int mat = std::max(0, material_index(b.material));
-    layers.z_bot[layers.n] = b.z_min;
-    layers.z_top[layers.n] = b.z_max;
-    layers.gamma[layers.n] = materials_host_[mat].density * config_.gravity;
-    ++layers.n;
+    layer_h(k, 0) = b.z_min;
+    layer_h(k, 1) = b.z_max;
+    layer_h(k, 2) = materials_host_[mat].density * config_.gravity;
   }
+  Kokkos::deep_copy(layers.layer, layer_h);
   Particles& P = particles_;
-  auto x = P.x; auto sigma = P.sigma; auto material = P.material;
-  auto mats = materials_;
-  Kokkos::parallel_for("tamp::geostatic_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       KOKKOS_LAMBDA(int i) {
-                         const double sv = layers.sigma_v(x(i, 1));
-                         const MaterialParams& m = mats(material(i));
-                         const double K = m.bulk_modulus, G = m.shear_modulus;
-                         const double nu = (3 * K - 2 * G) / (2 * (3 * K + G));
-                         const double k = k0 >= 0 ? k0 : nu / (1 - nu);
-                         sigma(i, 0) = k * sv;
-                         sigma(i, 1) = sv;
-                         sigma(i, 2) = k * sv;
-                         sigma(i, 3) = 0;
-                       });
+  Kokkos::parallel_for("tamp::geostatic_stress", real_particles(), GeostaticStress(P, materials_, layers, k0));
   if (own_fem_) {  // the deck's elements: the same layered state at their centres
     fem::FemModel& f = *own_fem_;
+    const GeostaticLayers<decltype(layer_h)> host_layers{layer_h, layers.n};
     std::vector<double> st(4 * static_cast<size_t>(f.mesh().n_elements));
-    for (int e = 0; e < f.mesh().n_elements; ++e) {
-      const double sv = layers.sigma_v(f.element_z0(e));
-      const MaterialParams& m = f.materials()[f.element_material(e)];
-      const double K = m.bulk_modulus, G = m.shear_modulus, nu = (3 * K - 2 * G) / (2 * (3 * K + G));
-      const double k = k0 >= 0 ? k0 : nu / (1 - nu);
-      st[4 * e + 0] = k * sv; st[4 * e + 1] = sv; st[4 * e + 2] = k * sv; st[4 * e + 3] = 0.0;
-    }
+    for (int e = 0; e < f.mesh().n_elements; ++e)
+      at_rest_stress(f.materials()[f.element_material(e)], host_layers.sigma_v(f.element_z0(e)), k0, &st[4 * e]);
     f.set_element_stress(st);
     f.hold_boundary_forces();
     sync_tie_stress();

@@ -14,6 +14,8 @@
 #include "core/Particles.hpp"
 #include "kernels/FemModel.hpp"
 #include "kernels/EnergyAccount.hpp"
+#include "kernels/Geostatic.hpp"
+#include "kernels/ParticleGenerator.hpp"
 #include "kernels/Integrate.hpp"
 #include "kernels/Mirror.hpp"
 #include "kernels/NeighbourList.hpp"

@@ -693,3 +693,30 @@ TEST_CASE("Deck: a model that cannot run is refused, naming the key", "[deck]") 
     require_error(p.text(), {"blocks[0].r = [0.0, 1e-06]", "thinner than one particle spacing"});
   }
 }
+
+TEST_CASE("Deck: errors name the right key and print the value readably", "[deck]") {
+  // Issue 13's reproducer 5.
+  SECTION("an SPH zone edge off the particle grid in z blames z, not r") {
+    Parts p;
+    p.rest = "[fem]\nsph_zone = { r = [0.0, 0.30], z = [0.4, 0.795] }\n";
+    require_error(p.text(), {"fem.sph_zone.z = [0.4, 0.795]", "whole particle spacings"});
+  }
+  SECTION("a huge block is out of range, printed short") {
+    Parts p;
+    p.blocks = "[[blocks]]\nmaterial = \"soil\"\nr = [0, 1e308]\nz = [0, 1]\n";
+    const std::string msg = require_error(p.text(), {"blocks[0].r = [0, 1e+308] is out of range", "<= 1e4"});
+    CHECK(msg.size() < 200);
+  }
+  SECTION("a file name with a newline stays on one line") {
+    Parts p;
+    p.top = "gravity = -1\n";
+    std::string msg;
+    try {
+      parse_deck(p.text(), "odd\nname.toml");
+    } catch (const DeckError& e) {
+      msg = e.what();
+    }
+    CHECK(msg.find('\n') == std::string::npos);
+    CHECK_THAT(msg, Catch::StartsWith("odd\\x0aname.toml: gravity = -1 is out of range"));
+  }
+}

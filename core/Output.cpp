@@ -51,8 +51,23 @@ std::string hdf5_detail() {
       },
       &innermost);
   H5Eclear2(H5E_DEFAULT);
-  return innermost.empty() ? std::string() : " (HDF5: " + innermost + ")";
+  if (innermost.empty()) return std::string();
+  // A failed write carries the system's reason ("... error message = 'No space left on
+  // device', ..."): that alone; otherwise the text on one line.
+  const std::string tag = "error message = '";
+  const auto at = innermost.find(tag);
+  if (at != std::string::npos) {
+    const auto end = innermost.find('\'', at + tag.size());
+    if (end != std::string::npos) return " (" + innermost.substr(at + tag.size(), end - at - tag.size()) + ")";
+  }
+  for (char& c : innermost)
+    if (c == '\n' || c == '\r') c = ' ';
+  return " (HDF5: " + innermost + ")";
 }
+
+// Set when creating or closing a file failed: HDF5 keeps such a file open, and its own clean-up at exit
+// then retries the flush (an endless loop or a crash on a full disk). See hdf5_write_failed.
+bool g_close_failed = false;
 
 [[noreturn]] void h5_fail(const std::string& what) { throw std::runtime_error(what + hdf5_detail()); }
 
@@ -80,7 +95,10 @@ class Handle {
   // closing flushes the data.
   void close(const std::string& what) {
     const hid_t id = std::exchange(id_, -1);
-    h5_check(close_(id), what);
+    if (close_(id) < 0) {
+      g_close_failed = true;
+      h5_fail(what);
+    }
   }
 
  private:
@@ -90,8 +108,9 @@ class Handle {
 
 // `path` is created; errors name `label` (the final name of a file written via a temporary).
 Handle create_file(const std::string& path, const std::string& label) {
-  return Handle(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                label + ": cannot create the HDF5 file");
+  const hid_t id = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (id < 0) g_close_failed = true;  // a half-created file can stay open in the library too
+  return Handle(id, H5Fclose, label + ": cannot create the HDF5 file");
 }
 Handle open_file(const std::string& path) {
   std::error_code ec;
@@ -265,6 +284,8 @@ void write_h5_atomically(const std::string& path, Fill&& fill) {
 }
 
 }  // namespace
+
+bool hdf5_write_failed() { return g_close_failed; }
 
 // ---------------------------------------------------------------- snapshots
 

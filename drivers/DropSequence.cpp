@@ -565,8 +565,9 @@ void DropSequence::end_stage(int k) {
   write_snapshot_h5(out_ + "/stages/" + name + ".h5", snap);
   series_.add("stages/" + name + ".h5", snap);
   series_.write();
-  last_checkpoint_ = out_ + "/checkpoints/" + name + ".h5";
-  write_checkpoint_h5(last_checkpoint_, checkpoint());
+  const std::string path = out_ + "/checkpoints/" + name + ".h5";
+  write_checkpoint_h5(path, checkpoint());
+  last_checkpoint_ = path;  // only once it is written (a full disk leaves the previous one)
   write_tables(wall_done_);
 }
 
@@ -621,8 +622,9 @@ bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) 
       throw;
     }
     if (stopped) {
-      last_checkpoint_ = out_ + "/checkpoints/interrupted.h5";
-      write_checkpoint_h5(last_checkpoint_, checkpoint());
+      const std::string path = out_ + "/checkpoints/interrupted.h5";
+      write_checkpoint_h5(path, checkpoint());
+      last_checkpoint_ = path;
       write_tables(wall_done_ + stage_wall_);
       return false;
     }

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -120,6 +121,11 @@ int run_sequence(const Config& cfg, Simulation& sim, const std::string& out, con
     tamp::log::error("run failed in stage " + std::to_string(seq.next_stage()) + ": " + e.what() +
                      "; last good state: " + (seq.last_checkpoint().empty() ? std::string("none") : seq.last_checkpoint()) +
                      " (resume with: tamp run DECK --restart CHECKPOINT --out NEWDIR)");
+    return 1;
+  } catch (const std::runtime_error& e) {  // a result file could not be written (a full disk)
+    tamp::log::error("writing results failed in stage " + std::to_string(seq.next_stage()) + ": " + e.what() +
+                     "; last good checkpoint: " +
+                     (seq.last_checkpoint().empty() ? std::string("none") : seq.last_checkpoint()));
     return 1;
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -492,6 +498,14 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     tamp::log::error(e.what());
     rc = 1;
+  }
+  if (tamp::hdf5_write_failed()) {
+    // A file HDF5 could not close stays open inside the library, whose clean-up at exit
+    // would retry the write (an endless loop or a crash on a full disk): end here. Every
+    // earlier result file is complete (each is written via a temporary and a rename).
+    std::cout.flush();
+    std::cerr.flush();
+    std::_Exit(rc != 0 ? rc : 1);
   }
   Kokkos::finalize();
   return rc;

@@ -1,7 +1,10 @@
 // Results output: HDF5 snapshots, XDMF series, CSV.
 #include <catch2/catch.hpp>
 
+#include <sys/wait.h>
+
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -223,4 +226,38 @@ TEST_CASE("Output: CSV has the header and full-precision rows", "[output]") {
   CHECK_FALSE(std::getline(in, line));
 
   CHECK_THROWS_AS(tamp::write_csv(path.string(), {"a", "b"}, {{1.0}}), std::invalid_argument);
+}
+
+TEST_CASE("Output: a result file that cannot be written ends the run with one line, the last checkpoint intact",
+          "[output]") {
+  // Issue 13's reproducer 2: on a full disk HDF5's error came over two lines, then the
+  // library crashed (SIGSEGV) or looped while closing. Here the file-size limit (ulimit -f,
+  // with SIGXFSZ ignored: writes fail with EFBIG, as on a full disk with ENOSPC) stops the
+  // CI drop scenario at its first checkpoint over 220 kB. Expected: exit code 1, exactly
+  // one error line naming the file and the reason, and the checkpoint before it readable.
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "tamp-test-write-failure";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string out = (dir / "run").string(), log = (dir / "log.txt").string();
+  const std::string cmd = "bash -c 'ulimit -f 220; trap \"\" XFSZ; exec " + std::string(TAMP_BINARY) + " run " +
+                          std::string(TAMP_SOURCE_DIR) + "/examples/ci-drop.toml --out " + out + "' > " + log + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 1);
+  std::ifstream in(log);
+  std::vector<std::string> errors;
+  for (std::string line; std::getline(in, line);)
+    if (line.find("error") != std::string::npos || line.find("HDF5") != std::string::npos) errors.push_back(line);
+  REQUIRE(errors.size() == 1);
+  INFO(errors[0]);
+  CHECK_THAT(errors[0], Catch::Contains(".h5: cannot close the HDF5 file (File too large)"));
+  const std::string tag = "last good checkpoint: ";
+  const auto at = errors[0].find(tag);
+  REQUIRE(at != std::string::npos);
+  const std::string last = errors[0].substr(at + tag.size());
+  CHECK_THAT(last, Catch::EndsWith("000-relax.h5"));
+  const tamp::Checkpoint c = tamp::read_checkpoint_h5(last);  // complete and readable
+  CHECK(c.scalars.at("particles") > 0);
+  fs::remove_all(dir);
 }

@@ -1,0 +1,107 @@
+// The deck fuzzer (issue 13): mutated copies of the example decks, each parsed (and, when
+// accepted, built into a Simulation). The promise of docs/input-deck.md, checked on every
+// case: a deck is either accepted or refused with one DeckError line of the documented form
+// ("<file>: <key> ... ; allowed: ..." / "... is missing; required: ..." / "TOML syntax error
+// ..."); building an accepted deck either works or fails with std::invalid_argument (exit 2,
+// "bad input"); nothing else escapes, nothing crashes. Seeded, so a failure reproduces:
+// TAMP_FUZZ_CASES and TAMP_FUZZ_SEED change the count (default 3000, about 1 s) and the seed.
+#include <catch2/catch.hpp>
+
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/Deck.hpp"
+#include "drivers/Simulation.hpp"
+
+namespace {
+
+std::vector<std::string> lines_of(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> out;
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+// Values that have broken validators before: zero, signs, extremes, denormals, non-numbers,
+// wrong types, empty and odd arrays.
+const std::vector<std::string> kNasty = {
+    "0", "-1", "1", "0.5", "2", "1e308", "-1e308", "5e-324", "1e-300", "nan", "inf", "-inf",
+    "9223372036854775807", "-9223372036854775808", "\"\"", "\"x\"", "\"\\n\"", "true", "[]", "[1]",
+    "[0, 0]", "[1, 0]", "[0, 1e308]", "[-1, 1]", "[1, 2, 3]", "{}", "[\"a\", \"b\"]", "1e999", "0x10",
+    "[[1]]"};
+
+}  // namespace
+
+TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never crash", "[deck][fuzz]") {
+  const int cases = std::getenv("TAMP_FUZZ_CASES") ? std::atoi(std::getenv("TAMP_FUZZ_CASES")) : 3000;
+  const unsigned seed = std::getenv("TAMP_FUZZ_SEED") ? std::atoi(std::getenv("TAMP_FUZZ_SEED")) : 20261201u;
+  const std::string dir = std::string(TAMP_SOURCE_DIR) + "/examples/";
+  const std::vector<std::string> decks = {"ci-drop.toml", "lab-geostatic.toml", "lab-test.toml"};
+  std::vector<std::vector<std::string>> texts;
+  for (const auto& d : decks) texts.push_back(lines_of(dir + d));
+  std::mt19937 rng(seed);
+  auto pick = [&](std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); };
+  int accepted = 0, refused = 0, built = 0, build_refused = 0;
+  std::vector<std::string> failures;
+  for (int c = 0; c < cases && failures.size() < 5; ++c) {
+    const std::size_t d = pick(decks.size());
+    std::vector<std::string> t = texts[d];
+    const int mutations = 1 + static_cast<int>(pick(3));
+    std::string what;
+    for (int m = 0; m < mutations; ++m) {
+      std::vector<std::size_t> keyed;  // "key = value" lines
+      for (std::size_t i = 0; i < t.size(); ++i)
+        if (t[i].find(" = ") != std::string::npos && t[i][0] != '#') keyed.push_back(i);
+      if (keyed.empty()) break;
+      const std::size_t i = keyed[pick(keyed.size())];
+      const std::string key = t[i].substr(0, t[i].find(" = "));
+      switch (pick(4)) {
+        case 0:
+        case 1: t[i] = key + " = " + kNasty[pick(kNasty.size())]; break;  // a nasty value
+        case 2: t.erase(t.begin() + static_cast<long>(i)); break;          // a key left out
+        default: t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1"); // an unknown key
+      }
+      what += " | " + (i < t.size() ? t[i] : std::string("(end)"));
+    }
+    std::ostringstream text;
+    for (const auto& l : t) text << l << "\n";
+    const std::string label = "fuzz-" + std::to_string(c) + "-" + decks[d];
+    tamp::Config cfg;
+    try {
+      cfg = tamp::parse_deck(text.str(), label);
+      ++accepted;
+    } catch (const tamp::DeckError& e) {
+      const std::string msg = e.what();
+      const bool one_line = msg.find('\n') == std::string::npos && msg.size() < 600;
+      const bool form = msg.rfind(label + ": ", 0) == 0 &&
+                        (msg.find("; allowed: ") != std::string::npos || msg.find("; required: ") != std::string::npos ||
+                         msg.find("TOML syntax error") != std::string::npos);
+      if (!one_line || !form) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
+      ++refused;
+      continue;
+    } catch (const std::exception& e) {
+      failures.push_back("case " + std::to_string(c) + what + "\n  escaped: " + e.what());
+      continue;
+    }
+    // Build the small scenario's accepted mutants (the lab decks take ~0.1-1 s each).
+    if (decks[d] != "ci-drop.toml") continue;
+    try {
+      tamp::Simulation sim(cfg);
+      ++built;
+    } catch (const std::invalid_argument&) {
+      ++build_refused;  // "bad input", exit 2
+    } catch (const std::exception& e) {
+      failures.push_back("case " + std::to_string(c) + what + "\n  building escaped: " + e.what());
+    }
+  }
+  std::printf("[fuzz] %d cases (seed %u): %d accepted, %d refused in one line; of the accepted ci-drop mutants "
+              "%d built, %d refused as bad input; %zu failures\n",
+              cases, seed, accepted, refused, built, build_refused, failures.size());
+  for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
+  CHECK(failures.empty());
+  CHECK(refused > cases / 4);  // the mutations do reach the validators
+}

@@ -81,7 +81,7 @@ using FieldView = typename FieldViewOf<T, N>::type;
 
 struct Particles {
   int n_real = 0;
-  int n_virtual = 0;  // tie particles [n_real, n_real + n_virtual): FEM material seen by the SPH
+  int n_tie = 0;  // tie particles [n_real, n_real + n_tie): FEM material seen by the SPH
   int n_total = 0;
   int capacity = 0;
 

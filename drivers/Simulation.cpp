@@ -15,7 +15,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   sph_.h = config_.sph.h_factor * dp;
   sph_.alpha = config_.sph.alpha;
   sph_.beta = config_.sph.beta;
-  sph_.art_eps = config_.sph.artificial_stress;
+  sph_.artificial_stress_epsilon = config_.sph.artificial_stress;
   sph_.art_n = config_.sph.artificial_stress_n;
   sph_.inv_w_dp = 1.0 / Wendland2D(sph_.h).value(dp);
   sph_.r_min = config_.sph.axis_radius_factor * sph_.h;
@@ -29,7 +29,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   contact_law_.static_friction = config_.contact.static_friction;
   contact_law_.dynamic_friction = config_.contact.dynamic_friction;
   contact_law_.decay = config_.contact.decay;
-  fab_table_ = artificial_stress_table(sph_);
+  artificial_stress_factors_ = artificial_stress_table(sph_);
 
   // Mirror planes: the axis first, then the walls the deck asks for.
   MirrorPlanes& planes = ghosts_.planes;
@@ -54,7 +54,7 @@ Simulation::Simulation(const Config& config) : config_(config) {
   refresh_neighbours(true);
   ensure_pair_storage();
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
-                       PairKernelFactors(particles_, neighbours_, pair_f_, sph_.h));
+                       PairKernelFactors(particles_, neighbours_, pair_gradient_factor_, sph_.h));
   if (config_.fem.enabled) build_fem();  // elements outside the SPH zone, tied to the particles
   if (config_.initial_stress == "geostatic") {
     set_geostatic_stress();  // also updates the pair stress and the accelerations
@@ -177,8 +177,8 @@ int Simulation::material_index(const std::string& name) const {
 }
 
 void Simulation::ensure_pair_storage() {
-  if (pair_f_.extent(0) < neighbours_.neighbours.extent(0))
-    pair_f_ = View1<double>("tamp::pair_f", neighbours_.neighbours.extent(0));
+  if (pair_gradient_factor_.extent(0) < neighbours_.neighbours.extent(0))
+    pair_gradient_factor_ = View1<double>("tamp::pair_gradient_factor", neighbours_.neighbours.extent(0));
 }
 
 // pair_stress of the real particles from their stress, then every ghost's stress.
@@ -258,14 +258,14 @@ void Simulation::refresh_neighbours(bool force) {
   const double cutoff = 2.0 * sph_.h + skin_;
   bool rebuild = force;
   if (!rebuild) {
-    const double dmax = max_displacement_sq(P.x, P.x_ref, P.n_real + P.n_virtual);
+    const double dmax = max_displacement_sq(P.x, P.x_ref, P.n_real + P.n_tie);
     rebuild = std::sqrt(dmax) > 0.5 * skin_;
   }
   if (rebuild) {
     ghosts_.generate(P, cutoff, sph_.gravity);
-    neighbours_.build(P.x, P.n_total, P.n_real + P.n_virtual, cutoff);  // tie particles query too
-    Kokkos::deep_copy(Kokkos::subview(P.x_ref, std::make_pair(0, P.n_real + P.n_virtual), Kokkos::ALL),
-                      Kokkos::subview(P.x, std::make_pair(0, P.n_real + P.n_virtual), Kokkos::ALL));
+    neighbours_.build(P.x, P.n_total, P.n_real + P.n_tie, cutoff);  // tie particles query too
+    Kokkos::deep_copy(Kokkos::subview(P.x_ref, std::make_pair(0, P.n_real + P.n_tie), Kokkos::ALL),
+                      Kokkos::subview(P.x, std::make_pair(0, P.n_real + P.n_tie), Kokkos::ALL));
     ++list_builds_;
   } else {
     ghosts_.sync_kinematics(P);
@@ -280,7 +280,7 @@ void Simulation::compute_acceleration() {
     }
   {
     Timed t(*this, &StepProfile::sph);
-    Acceleration f(P, neighbours_, pair_f_, materials_, sph_, fab_table_);
+    Acceleration f(P, neighbours_, pair_gradient_factor_, materials_, sph_, artificial_stress_factors_);
     f.a_wall = a_wall_;
     f.a_art = a_art_;
     f.fixed_walls = fixed_walls_ ? 1 : 0;
@@ -366,7 +366,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   // particles move up and are refilled from the elements below.
   const int n0 = P.n_real, count = static_cast<int>(list.size());
   const int n1 = n0 + count;
-  P.reserve(n1 + P.n_virtual + (n1 + P.n_virtual) / 2 + 64);
+  P.reserve(n1 + P.n_tie + (n1 + P.n_tie) / 2 + 64);
   View1<double> hr_dev("tamp::new_r", count), hz_dev("tamp::new_z", count);
   View1<int> hm_dev("tamp::new_mat", count);
   auto hr = Kokkos::create_mirror_view(hr_dev);
@@ -402,7 +402,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
                           },
                           added);
   P.n_real = n1;
-  P.n_total = n1 + P.n_virtual;
+  P.n_total = n1 + P.n_tie;
   if (fem_) {
     sync_tie_kinematics();
     sync_tie_stress();
@@ -531,7 +531,7 @@ void Simulation::rates_and_stress(double dt) {
     Timed t(*this, &StepProfile::sph);
     ensure_pair_storage();
     Kokkos::parallel_for("tamp::sph::strain_rate_stress", real_particles(),
-                         StrainRateAndStress(P, neighbours_, pair_f_, materials_, sph_, dt));
+                         StrainRateAndStress(P, neighbours_, pair_gradient_factor_, materials_, sph_, dt));
   }
   element_stress(dt);
   Timed t(*this, &StepProfile::sph);
@@ -614,7 +614,7 @@ void Simulation::account_half_kick(double dt, double shift) {
   f.with_boundary = non_reflecting_.count > 0 ? 1 : 0;
   f.with_friction = fixed_walls_ ? 1 : 0;
   f.with_contact = contact ? 1 : 0;
-  f.with_art = sph_.art_eps > 0 ? 1 : 0;
+  f.with_art = sph_.artificial_stress_epsilon > 0 ? 1 : 0;
   Kokkos::parallel_reduce("tamp::energy::fluxes", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
                           Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(p.data(), count));
   const double h = 0.5 * dt;  // the half kick
@@ -768,7 +768,7 @@ void Simulation::rebuild_lists() {
   ensure_pair_storage();
   // the pair kernel factors follow the new list (compute_acceleration reads them)
   Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real),
-                       PairKernelFactors(particles_, neighbours_, pair_f_, sph_.h));
+                       PairKernelFactors(particles_, neighbours_, pair_gradient_factor_, sph_.h));
 }
 
 Checkpoint Simulation::save_state() {
@@ -842,9 +842,9 @@ void Simulation::load_state(const Checkpoint& c) {
     throw std::invalid_argument("checkpoint has " + std::to_string(n_saved) +
                                 " particles; the deck makes " + std::to_string(n));
   if (n_saved > n) {
-    P.reserve(n_saved + P.n_virtual + (n_saved + P.n_virtual) / 2 + 64);
+    P.reserve(n_saved + P.n_tie + (n_saved + P.n_tie) / 2 + 64);
     P.n_real = n_saved;
-    P.n_total = n_saved + P.n_virtual;
+    P.n_total = n_saved + P.n_tie;
     Kokkos::deep_copy(P.hoop_factor, 1.0);
     Kokkos::deep_copy(P.art_stress, 0.0);
   }
@@ -1168,7 +1168,7 @@ void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem
 
   fem_ = &fem;
   P.reserve(P.n_real + n + (P.n_total - P.n_real) + 64);
-  P.n_virtual = n;
+  P.n_tie = n;
   P.n_total = P.n_real + n;
   sync_tie_kinematics();
   sync_tie_stress();

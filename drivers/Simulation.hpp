@@ -207,8 +207,8 @@ class Simulation {
   MirrorGhosts ghosts_;
   MirrorPlanes non_reflecting_;  // boundaries with Lysmer dashpots (no mirror particles)
   NeighbourList neighbours_;
-  Kokkos::View<double*, MemSpace> fab_table_;  // artificial-stress factor against q
-  View1<double> pair_f_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
+  Kokkos::View<double*, MemSpace> artificial_stress_factors_;  // artificial-stress factor against q
+  View1<double> pair_gradient_factor_;  // (dW/dr)/r per listed pair, written by the strain-rate loop
   ViewN<double, 2> contact_force_;  // per particle ring, N
   // Parts of the acceleration kept apart for the wall friction and the energy account
   ViewN<double, 2> a_wall_, a_friction_, a_boundary_, a_art_;

@@ -64,7 +64,7 @@ inline void MirrorGhosts::generate(Particles& p, double band, double gravity) {
   gravity_ = gravity;
   using policy = Kokkos::RangePolicy<ExecSpace>;
   ranges_.clear();
-  int n = p.n_real + p.n_virtual;  // real and tie particles are the sources
+  int n = p.n_real + p.n_tie;  // real and tie particles are the sources
   for (int ip = 0; ip < planes.count; ++ip) {
     const MirrorPlane pl = planes.plane[ip];
     auto x = p.x;
@@ -98,7 +98,7 @@ inline void MirrorGhosts::generate(Particles& p, double band, double gravity) {
     n += count;
   }
   p.n_total = n;
-  ghost_count_ = n - p.n_real - p.n_virtual;
+  ghost_count_ = n - p.n_real - p.n_tie;
   sync_kinematics(p);
   sync_stress(p, gravity_);
 }

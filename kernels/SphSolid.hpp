@@ -26,7 +26,7 @@ struct SphParams {
   double h = 0;               // smoothing length, m
   double alpha = 0.5;         // Monaghan viscosity, linear
   double beta = 0.0;          // Monaghan viscosity, quadratic
-  double art_eps = 0.0;       // Gray-Monaghan-Swift epsilon
+  double artificial_stress_epsilon = 0.0;       // Gray-Monaghan-Swift epsilon
   double art_n = 2.55;        // exponent n
   double inv_w_dp = 0;        // 1 / W(dp)
   double r_min = 0;           // regularised radius c h, m
@@ -40,7 +40,7 @@ struct SphParams {
 struct StrainRateAndStress {
   ViewN<double, 2> x, v;
   View1<double> hoop_factor;  // out: chi, the hoop term is chi / r (see below)
-  View1<double> pair_f;  // out: (dW/dr)/r of every listed pair, 0 beyond the support
+  View1<double> pair_gradient_factor;  // out: (dW/dr)/r of every listed pair, 0 beyond the support
   View1<double> mass, rho, plastic_strain, compaction, internal_energy;
   ViewN<double, 4> sigma;
   ViewN<double, 3> art_stress;
@@ -51,10 +51,10 @@ struct StrainRateAndStress {
   double dt;
 
   // Built by name: the particle fields, the neighbour list, the pair factors it writes.
-  StrainRateAndStress(const Particles& P, const NeighbourList& list, const View1<double>& pair_f_out,
+  StrainRateAndStress(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_out,
                       const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
                       double dt_in)
-      : pair_f(pair_f_out), materials(materials_in), p(p_in), dt(dt_in) {
+      : pair_gradient_factor(pair_gradient_factor_out), materials(materials_in), p(p_in), dt(dt_in) {
     x = P.x; v = P.v; hoop_factor = P.hoop_factor; mass = P.mass; rho = P.rho;
     plastic_strain = P.plastic_strain; compaction = P.compaction; internal_energy = P.internal_energy;
     sigma = P.sigma; art_stress = P.art_stress; material = P.material;
@@ -72,7 +72,7 @@ struct StrainRateAndStress {
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
       const double f = W.gradient_factor(dr * dr + dz * dz);
-      pair_f(k) = f;  // grad_a W = f * (x_a - x_b); reused by the acceleration loop
+      pair_gradient_factor(k) = f;  // grad_a W = f * (x_a - x_b); reused by the acceleration loop
       if (f == 0.0) continue;  // listed within the Verlet skin, outside the kernel
       const double gr = f * dr, gz = f * dz;
       const double Vb = mass(b) * inv_eta_a;
@@ -139,12 +139,12 @@ struct StrainRateAndStress {
     const double mean = 0.5 * (s[0] + s[1]), half = 0.5 * (s[0] - s[1]);
     const double rad = math::sqrt(half * half + s[3] * s[3]);
     const double l1 = mean + rad, l2 = mean - rad;
-    if (l1 <= 0.0 || p.art_eps == 0.0) {
+    if (l1 <= 0.0 || p.artificial_stress_epsilon == 0.0) {
       art_stress(a, 0) = 0.0;
       art_stress(a, 1) = 0.0;
       art_stress(a, 2) = 0.0;
     } else {
-      const double k = -p.art_eps / (rho_new * rho_new);
+      const double k = -p.artificial_stress_epsilon / (rho_new * rho_new);
       const double R1 = k * l1, R2 = l2 > 0 ? k * l2 : 0.0;
       const double c2 = rad > 0 ? half / rad : 1.0, s2 = rad > 0 ? s[3] / rad : 0.0;
       art_stress(a, 0) = 0.5 * (R1 + R2) + 0.5 * (R1 - R2) * c2;
@@ -163,26 +163,26 @@ struct StrainRateAndStress {
 struct Acceleration {
   ViewN<double, 2> x, v, a, a_ext;
   ViewN<double, 2> a_wall;    // out: the part of a from fixed-wall ghosts (if fixed_walls)
-  ViewN<double, 2> a_art;     // out: the artificial stress's part of a (if art_eps > 0)
+  ViewN<double, 2> a_art;     // out: the artificial stress's part of a (if artificial_stress_epsilon > 0)
   View1<int> flags;
   View1<double> mass, rho, du_visc;
   ViewN<double, 4> sigma;
   ViewN<double, 3> pair_stress, art_stress;
   View1<int> material;
   View1<int> offsets, neighbours;
-  View1<double> pair_f;       // from StrainRateAndStress, same positions
+  View1<double> pair_gradient_factor;       // from StrainRateAndStress, same positions
   View1<double> hoop_factor;  // from StrainRateAndStress
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
-  Kokkos::View<const double*, MemSpace> fab_table;  // (W(q)/W(dp))^n tabulated, see below
+  Kokkos::View<const double*, MemSpace> artificial_stress_factors;  // (W(q)/W(dp))^n tabulated, see below
   int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
 
   // Built by name; the parts written apart (a_wall, a_art) and fixed_walls are set by the
   // caller by name.
-  Acceleration(const Particles& P, const NeighbourList& list, const View1<double>& pair_f_in,
+  Acceleration(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_in,
                const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
                const Kokkos::View<const double*, MemSpace>& fab_table_in)
-      : pair_f(pair_f_in), materials(materials_in), p(p_in), fab_table(fab_table_in) {
+      : pair_gradient_factor(pair_gradient_factor_in), materials(materials_in), p(p_in), artificial_stress_factors(fab_table_in) {
     x = P.x; v = P.v; a = P.a; a_ext = P.a_ext; flags = P.flags; mass = P.mass; rho = P.rho;
     du_visc = P.du_visc; sigma = P.sigma; pair_stress = P.pair_stress; art_stress = P.art_stress;
     material = P.material; hoop_factor = P.hoop_factor;
@@ -196,11 +196,11 @@ struct Acceleration {
     const double ia2 = 1.0 / (2.0 * pi * r_reg * rhoa * rhoa);
     const double Sa_rr = sigma(i, 0) * ia2, Sa_zz = sigma(i, 1) * ia2, Sa_rz = sigma(i, 3) * ia2;
     const double Ra_rr = art_stress(i, 0), Ra_zz = art_stress(i, 1), Ra_rz = art_stress(i, 2);
-    const bool Ra_on = p.art_eps > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
+    const bool Ra_on = p.artificial_stress_epsilon > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = materials(material(i)).wave_speed();
     double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
-      const double f = pair_f(k);
+      const double f = pair_gradient_factor(k);
       if (f == 0.0) continue;
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
@@ -214,15 +214,15 @@ struct Acceleration {
       const double mb_abs = mb < 0 ? -mb : mb;
       const double rb = math::max(math::abs(x(b, 0)), p.r_min);
       const double ring = mb_abs / (pi * (r_reg + rb));  // |m_b| / (2 pi mean r) = planar mass
-      if (Ra_on || (p.art_eps > 0 && (art_stress(b, 0) != 0 || art_stress(b, 1) != 0 || art_stress(b, 2) != 0))) {
+      if (Ra_on || (p.artificial_stress_epsilon > 0 && (art_stress(b, 0) != 0 || art_stress(b, 1) != 0 || art_stress(b, 2) != 0))) {
         const double r = math::sqrt(dr * dr + dz * dz);
         // f_ab^n from the table (linear interpolation in q = r/h; pow per pair cost a
         // quarter of the step time)
-        const int nt = static_cast<int>(fab_table.extent(0)) - 1;
+        const int nt = static_cast<int>(artificial_stress_factors.extent(0)) - 1;
         const double u = r / p.h * (0.5 * nt);
         const int it = u < nt ? static_cast<int>(u) : nt - 1;
         const double t = u - it;
-        const double fab = (1.0 - t) * fab_table(it) + t * fab_table(it + 1);
+        const double fab = (1.0 - t) * artificial_stress_factors(it) + t * artificial_stress_factors(it + 1);
         const double Arr = ring * fab * (Ra_rr + art_stress(b, 0));
         const double Azz = ring * fab * (Ra_zz + art_stress(b, 1));
         const double Arz = ring * fab * (Ra_rz + art_stress(b, 2));
@@ -255,7 +255,7 @@ struct Acceleration {
       a_wall(i, 0) = wr;
       a_wall(i, 1) = wz;
     }
-    if (p.art_eps > 0) {
+    if (p.artificial_stress_epsilon > 0) {
       a_art(i, 0) = sr;
       a_art(i, 1) = sz;
     }
@@ -274,10 +274,10 @@ struct Acceleration {
 struct PairKernelFactors {
   ViewN<double, 2> x;
   View1<int> offsets, neighbours;
-  View1<double> pair_f;
+  View1<double> pair_gradient_factor;
   double h;
-  PairKernelFactors(const Particles& P, const NeighbourList& list, const View1<double>& pair_f_out, double h_in)
-      : pair_f(pair_f_out), h(h_in) {
+  PairKernelFactors(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_out, double h_in)
+      : pair_gradient_factor(pair_gradient_factor_out), h(h_in) {
     x = P.x; offsets = list.offsets; neighbours = list.neighbours;
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
@@ -285,7 +285,7 @@ struct PairKernelFactors {
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = x(a, 0) - x(b, 0), dz = x(a, 1) - x(b, 1);
-      pair_f(k) = W.gradient_factor(dr * dr + dz * dz);
+      pair_gradient_factor(k) = W.gradient_factor(dr * dr + dz * dz);
     }
   }
 };
@@ -361,7 +361,7 @@ struct NonReflectingBoundary {
 // Table of f_ab^n = (W(q h) / W(dp))^n at q = 2 k / (n_entries - 1), k = 0 .. n_entries-1
 // (relative interpolation error below 1e-5 with 2049 entries).
 inline Kokkos::View<double*, MemSpace> artificial_stress_table(const SphParams& p, int n_entries = 2049) {
-  Kokkos::View<double*, MemSpace> table("tamp::fab_table", n_entries);
+  Kokkos::View<double*, MemSpace> table("tamp::artificial_stress_factors", n_entries);
   auto h = Kokkos::create_mirror_view(table);
   const Wendland2D W(p.h);
   for (int k = 0; k < n_entries; ++k) {

@@ -59,6 +59,12 @@ struct MaterialSpec {
   std::map<std::string, double> params;
 };
 
+// K from the deck's engineering inputs (G, nu): K = 2G(1+nu)/(3(1-2nu)). Here, without
+// Kokkos, so that the deck validator and the kernel parameters share it.
+inline double bulk_from_shear(double G, double nu) {
+  return 2.0 * G * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
+}
+
 struct BlockSpec {
   std::string material;           // name of a MaterialSpec
   double r_min = 0, r_max = 0;    // m

@@ -748,7 +748,7 @@ void check_runnable(const Reporter& rep, const Config& cfg, const std::vector<co
   for (std::size_t i = 0; i < cfg.materials.size(); ++i) {
     const MaterialSpec& m = cfg.materials[i];
     const std::string p = "materials[" + std::to_string(i) + "]";
-    const double K = 2.0 * m.shear_modulus * (1.0 + m.poisson_ratio) / (3.0 * (1.0 - 2.0 * m.poisson_ratio));
+    const double K = bulk_from_shear(m.shear_modulus, m.poisson_ratio);
     const double M = K + 4.0 / 3.0 * m.shear_modulus;
     const double c = std::sqrt(M / m.density);
     if (std::isfinite(c) && c > 0) {

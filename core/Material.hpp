@@ -1,6 +1,7 @@
 // Plain-data material parameters, usable inside kernels on every back end.
 // Material dispatch in kernels is a switch on `model` (no virtual functions).
 #pragma once
+#include "core/Config.hpp"  // bulk_from_shear
 #include "core/Types.hpp"
 
 namespace tamp {
@@ -50,9 +51,5 @@ struct MaterialParams {
   }
 };
 
-// K and G from Young-free engineering inputs (G, nu): K = 2G(1+nu)/(3(1-2nu)).
-inline double bulk_from_shear(double G, double nu) {
-  return 2.0 * G * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
-}
 
 }  // namespace tamp

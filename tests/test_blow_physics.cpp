@@ -201,75 +201,142 @@ TEST_CASE("Wall: a cohesionless grain pushed along a fixed base stops after v0^2
   CHECK(std::fabs(s1.vr[0]) < 1e-6);  // at rest
 }
 
-// Hidden (known defect, docs/drop-sequence.md "The aggregate as a poured material"): the
-// dumped cone slumps to a 27.5 deg flank at 10 mm (30.2 deg at 5 mm, TAMP_HEAP_DP=0.005),
-// not to 47 +- 3 deg; with the lab's settling damping (TAMP_HEAP_DAMPING=60) it creeps at
-// 50 deg after 1 s. Run it by name: tamp_tests "Aggregate: a heap*".
-TEST_CASE("Aggregate: a heap of the poured charge on a rough base slumps to its angle of repose, and comes to rest",
-          "[.][known-defect][aggregate]") {
-  // The lab's aggregate (cohesionless Mohr-Coulomb, phi = 47 deg, psi = 0, 10 mm particles,
-  // one per grain) dumped as a 60 deg cone (radius 0.15 m, zero stress, as a charge is
-  // created) on a fixed (rough) base, released undamped under gravity. A cohesionless slope
-  // is in limit equilibrium at beta = phi whatever its height (infinite-slope analysis), so a
-  // cone steeper than phi slumps until its flank stands at phi or a little below it where
-  // the slump's momentum carries it on. Target 47 deg, tolerance 3 deg (issue): the lab
-  // literature for crushed rock gives angles of repose of about 40-45 deg, a little below a
-  // peak phi of 47 deg. Rest: every particle slower than 5 mm/s after 1 s.
-  tamp::log::set_level(tamp::log::Level::Quiet);
-  const double dp = std::getenv("TAMP_HEAP_DP") ? std::atof(std::getenv("TAMP_HEAP_DP")) : 0.01;
-  const double R0 = 0.15, beta0 = 60.0 * M_PI / 180.0;
-  Config cfg = column_config(0.6, 0.01, dp);
+// ---------------------------------------------------------------------------------------
+// The aggregate as a poured material (docs/drop-sequence.md). The lab's aggregate
+// (cohesionless Mohr-Coulomb, phi = 47 deg, psi = 0, 10 mm particles, one per grain) on a
+// fixed (rough) base, undamped, under gravity.
+namespace {
+
+// A cone of the aggregate with flank angle beta (deg) and base radius R0 (m) at zero
+// stress, as a charge is created: one block per particle row.
+Config aggregate_cone(double beta_deg, double R0, double dp, double domain_radius) {
+  Config cfg = column_config(domain_radius, 0.01, dp);
   cfg.materials = {tamp::lab::aggregate()};
   cfg.blocks.clear();
-  const double H0 = R0 * std::tan(beta0);
-  for (int j = 0; (j + 0.5) * dp < H0; ++j) {  // one block per particle row
+  const double tb = std::tan(beta_deg * M_PI / 180.0);
+  for (int j = 0; (j + 0.5) * dp < R0 * tb; ++j) {
     BlockSpec b;
     b.material = "aggregate";
     b.z_min = j * dp;
     b.z_max = (j + 1) * dp;
     b.r_min = 0;
-    b.r_max = dp * std::round((R0 - (j + 0.5) * dp / std::tan(beta0)) / dp);
+    b.r_max = dp * std::round((R0 - (j + 0.5) * dp / tb) / dp);
     if (b.r_max < dp) break;
     cfg.blocks.push_back(b);
   }
   cfg.bottom = {WallType::Fixed, 0.0};
   cfg.outer = {WallType::None, 0.0};
   cfg.gravity = 9.81;
-  if (const char* d = std::getenv("TAMP_HEAP_DAMPING")) cfg.damping = std::atof(d);
-  Simulation sim(cfg);
-  sim.advance_to(1.0);
+  return cfg;
+}
+
+// The heap's shape: its height, its flank angle (a least-squares line through the tops of
+// the radial bands of width dp whose top lies between 20 % and 80 % of the height) and its
+// fastest particle.
+struct HeapShape {
+  double height = 0, flank_deg = 0, vmax = 0;
+  int bands = 0;
+};
+
+HeapShape heap_shape(const Simulation& sim, double dp, double domain_radius) {
   const auto s = tamp::testing::host_state(sim);
-  double vmax = 0, top = 0;
-  for (size_t i = 0; i < s.r.size(); ++i) {
-    vmax = std::max(vmax, std::hypot(s.vr[i], s.vz[i]));
-    top = std::max(top, s.z[i] + 0.5 * dp);
-  }
-  // surface profile: the top of each radial band of width dp
-  const int nb = static_cast<int>(0.6 / dp);
+  HeapShape h;
+  const int nb = static_cast<int>(domain_radius / dp);
   std::vector<double> surf(nb, 0.0);
   for (size_t i = 0; i < s.r.size(); ++i) {
+    h.vmax = std::max(h.vmax, std::hypot(s.vr[i], s.vz[i]));
+    h.height = std::max(h.height, s.z[i] + 0.5 * dp);
     const int k = std::min(nb - 1, static_cast<int>(s.r[i] / dp));
     surf[k] = std::max(surf[k], s.z[i] + 0.5 * dp);
   }
-  // the flank: bands whose surface lies between 20 % and 80 % of the heap's height; a
-  // least-squares line z(r) through them
   double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  int n = 0;
   for (int k = 0; k < nb; ++k)
-    if (surf[k] > 0.2 * top && surf[k] < 0.8 * top) {
+    if (surf[k] > 0.2 * h.height && surf[k] < 0.8 * h.height) {
       const double r = (k + 0.5) * dp;
       sx += r; sy += surf[k]; sxx += r * r; sxy += r * surf[k];
-      ++n;
+      ++h.bands;
     }
-  REQUIRE(n >= 3);
-  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-  const double angle = std::atan(-slope) * 180.0 / M_PI;
-  double reach = 0;
-  for (int k = 0; k < nb; ++k) if (surf[k] > 0) reach = (k + 1) * dp;
-  std::printf("[heap] %zu particles, cone of 60 deg / height %.3f m -> height %.3f m, reach %.3f m, flank %.1f deg "
-              "(%d bands), fastest particle %.2e m/s\n",
-              s.r.size(), H0, top, reach, angle, n, vmax);
-  CHECK(std::fabs(angle - 47.0) < 3.0);
-  CHECK(vmax < 5e-3);
+  const int n = h.bands;
+  if (n >= 3) h.flank_deg = std::atan(-(n * sxy - sx * sy) / (n * sxx - sx * sx)) * 180.0 / M_PI;
+  return h;
+}
+
+}  // namespace
+
+TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and comes to rest; 3 deg steeper it slumps",
+          "[aggregate]") {
+  // A cohesionless slope is in limit equilibrium at beta = phi (infinite-slope analysis;
+  // near the free surface of a cone the hoop stress is the intermediate one and does not
+  // change that), so a cone flatter than phi must stand and one steeper must slump. The
+  // particle model loses a little strength at the free surface (a cohesionless particle
+  // there has almost no confinement inside its kernel radius of 3 spacings): measured, a
+  // 42 deg cone stands, 43-44 deg creeps after 1 s, 47 deg and steeper slump. Asserted: the
+  // model's critical slope lies between phi - 5 and phi + 3 deg: the 42 deg cone keeps its
+  // height within 5 % (it settles 2.6 % as the zero-stress charge takes its weight) and every
+  // particle is slower than 1 mm/s after 2 s; the 50 deg cone loses more than 10 % of its
+  // height in 1 s.
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const double dp = 0.01, R0 = 0.3, W = 0.8;
+  {
+    Simulation sim(aggregate_cone(42.0, R0, dp, W));
+    const HeapShape h0 = heap_shape(sim, dp, W);
+    sim.advance_to(2.0);
+    const HeapShape h = heap_shape(sim, dp, W);
+    std::printf("[heap] 42 deg cone: height %.3f -> %.3f m (%+.1f %%), flank %.1f deg, fastest particle %.2e m/s\n",
+                h0.height, h.height, 100 * (h.height / h0.height - 1), h.flank_deg, h.vmax);
+    CHECK(h.height > 0.95 * h0.height);
+    CHECK(h.vmax < 1e-3);
+  }
+  {
+    Simulation sim(aggregate_cone(50.0, R0, dp, W));
+    const HeapShape h0 = heap_shape(sim, dp, W);
+    sim.advance_to(1.0);
+    const HeapShape h = heap_shape(sim, dp, W);
+    std::printf("[heap] 50 deg cone: height %.3f -> %.3f m (%+.1f %%), flank %.1f deg, fastest particle %.2e m/s\n",
+                h0.height, h.height, 100 * (h.height / h0.height - 1), h.flank_deg, h.vmax);
+    CHECK(h.height < 0.90 * h0.height);
+  }
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
+// Hidden (known defect, docs/drop-sequence.md "The aggregate as a poured material"): poured,
+// the heap stands at 25-38 deg at 10 mm (30.7 deg at 5 mm, TAMP_HEAP_DP=0.005), not at
+// 47 +- 3 deg. Run it by name: tamp_tests "Aggregate: a heap*".
+TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
+          "[.][known-defect][aggregate]") {
+  // Poured as a rain over a disk of radius 0.1 m: every 0.05 s one row of particles (one
+  // per radial band, at rest, zero stress, the ring mass of where it lands) is placed one
+  // spacing above the top of its band; 25 rows, then 1.5 s to settle. The heap grows by
+  // avalanches down its flank, as a funnel-poured heap does. A cohesionless slope stands at
+  // beta = phi (infinite-slope analysis) and crushed rock is poured at about 40-45 deg in
+  // the lab, a little below a peak phi of 47 deg; target 47 deg, tolerance 3 deg (issue).
+  // Rest: every particle slower than 5 mm/s at the end.
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const double dp = std::getenv("TAMP_HEAP_DP") ? std::atof(std::getenv("TAMP_HEAP_DP")) : 0.01;
+  const double W = 0.5, R_pour = 0.1;
+  const int rows = static_cast<int>(std::lround(0.25 / dp));
+  Config cfg = aggregate_cone(45.0, R_pour, dp, W);
+  cfg.blocks.resize(1);  // the first row: a disk one spacing thick
+  cfg.blocks[0].r_max = R_pour;
+  Simulation sim(cfg);
+  const int nr = static_cast<int>(std::lround(R_pour / dp));
+  for (int row = 1; row < rows; ++row) {
+    sim.advance_to(sim.time() + 0.05);
+    const auto s = tamp::testing::host_state(sim);
+    std::vector<double> top(nr, 0.0);
+    for (size_t i = 0; i < s.r.size(); ++i) {
+      const int k = static_cast<int>(s.r[i] / dp);
+      if (k < nr) top[k] = std::max(top[k], s.z[i]);
+    }
+    std::vector<tamp::NewParticle> add;
+    for (int k = 0; k < nr; ++k) add.push_back({(k + 0.5) * dp, top[k] + dp, 0});
+    sim.add_particles(add);
+  }
+  sim.advance_to(sim.time() + 1.5);
+  const HeapShape h = heap_shape(sim, dp, W);
+  std::printf("[heap] poured: %zu particles, height %.3f m, flank %.1f deg (%d bands), fastest particle %.2e m/s\n",
+              sim.snapshot().r.size(), h.height, h.flank_deg, h.bands, h.vmax);
+  CHECK(std::fabs(h.flank_deg - 47.0) < 3.0);
+  CHECK(h.vmax < 5e-3);
   tamp::log::set_level(tamp::log::Level::Info);
 }

@@ -450,6 +450,11 @@ Checkpoint DropSequence::checkpoint() {
   c.scalars["seq_contact_time"] = contact_time_;
   c.scalars["seq_flight_time"] = flight_time_;
   c.reals["seq_energy0"].values = energy0_;
+  for (int k = 0; k < static_cast<int>(Phase::Count); ++k)  // steps, simulated s, wall s
+    c.reals["seq_phase_time"].values.insert(c.reals["seq_phase_time"].values.end(),
+                                            {double(phase_time_[k].steps), phase_time_[k].simulated_s,
+                                             phase_time_[k].wall_s});
+  c.reals["seq_phase_time"].width = 3;
   auto& br = c.reals["seq_blows"];
   const auto& cols = blow_columns();
   br.width = static_cast<int>(2 + cols.size() + cfg_.materials.size());
@@ -508,6 +513,11 @@ void DropSequence::restore(const Checkpoint& c) {
   contact_time_ = opt("seq_contact_time");
   flight_time_ = opt("seq_flight_time");
   energy0_ = c.reals.count("seq_energy0") ? c.reals.at("seq_energy0").values : std::vector<double>{};
+  if (c.reals.count("seq_phase_time")) {  // older checkpoints have none: timing starts at 0
+    const auto& v = c.reals.at("seq_phase_time").values;
+    for (int k = 0; k < static_cast<int>(Phase::Count) && 3 * k + 2 < static_cast<int>(v.size()); ++k)
+      phase_time_[k] = {static_cast<long>(v[3 * k]), v[3 * k + 1], v[3 * k + 2]};
+  }
   blows_.clear();
   const auto& br = c.reals.at("seq_blows");
   const auto& cols = blow_columns();
@@ -590,15 +600,24 @@ void DropSequence::run_stage(int k, const std::function<bool()>& keep_going, boo
                           : s.kind == StageKind::Extract ? sch.extract_time
                           : s.kind == StageKind::Backfill ? sch.settle_time
                                                           : 0.0;
+  double last_wall = wall_now();
   for (;;) {
     bool more;
+    const double t_before = sim_.time();
+    const long steps_before = sim_.steps();
     if (s.kind == StageKind::Impact) {
       more = impact_step();
     } else {
       more = sim_.time() - stage_t0_ < duration * (1.0 - 1e-12);
       if (more) sim_.step();
     }
-    stage_wall_ = wall_before + (wall_now() - w0);
+    const double now = wall_now();
+    PhaseTime& pt = phase_time_[static_cast<int>(step_phase(s))];
+    pt.steps += sim_.steps() - steps_before;
+    pt.simulated_s += sim_.time() - t_before;
+    pt.wall_s += now - last_wall;
+    last_wall = now;
+    stage_wall_ = wall_before + (now - w0);
     record(false);
     progress(k, false);
     if (!more) break;
@@ -608,6 +627,17 @@ void DropSequence::run_stage(int k, const std::function<bool()>& keep_going, boo
     }
   }
   end_stage(k);
+}
+
+Phase DropSequence::step_phase(const Stage& s) const {
+  switch (s.kind) {
+    case StageKind::Relax: return Phase::Relax;
+    case StageKind::Extract: return Phase::Extract;
+    case StageKind::Backfill: return Phase::Settle;
+    case StageKind::Impact: break;
+  }
+  if (phase_ == 1) return Phase::Rest;
+  return in_contact_ > 0 ? Phase::Contact : Phase::Flight;
 }
 
 bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) {
@@ -759,6 +789,27 @@ void DropSequence::write_tables(double wall_s) const {
   }
   write_csv(out_ + "/tracers.csv", th, tracer_rows_);
   write_csv(out_ + "/pounder.csv", {"time_s", "blow", "base_z_m", "v_z_m_s", "a_z_m_s2", "force_z_N"}, pounder_rows_);
+  {
+    static const char* names[] = {"relax", "impact_contact", "impact_flight", "impact_rest", "extract", "settle"};
+    PhaseTime all;
+    for (int k = 0; k < static_cast<int>(Phase::Count); ++k) {
+      const PhaseTime& p = phase_time_[k];
+      all.steps += p.steps;
+      all.simulated_s += p.simulated_s;
+      all.wall_s += p.wall_s;
+    }
+    std::ofstream f(out_ + "/timing.csv");
+    f << "phase,steps,simulated_s,wall_s,share_of_wall\n";
+    char line[160];
+    for (int k = 0; k < static_cast<int>(Phase::Count); ++k) {
+      const PhaseTime& p = phase_time_[k];
+      std::snprintf(line, sizeof line, "%s,%ld,%.9g,%.6g,%.4f\n", names[k], p.steps, p.simulated_s, p.wall_s,
+                    all.wall_s > 0 ? p.wall_s / all.wall_s : 0.0);
+      f << line;
+    }
+    std::snprintf(line, sizeof line, "all,%ld,%.9g,%.6g,1\n", all.steps, all.simulated_s, all.wall_s);
+    f << line;
+  }
   write_csv(out_ + "/energy.csv",
             {"time_s", "kinetic_J", "internal_J", "potential_J", "pounder_J", "contact_J", "total_J", "damped_J",
              "radiated_J", "wall_friction_J", "accounted_J"},

@@ -82,6 +82,13 @@ struct HostParticles {
 };
 
 enum class StageKind { Relax, Impact, Extract, Backfill };
+// Where the steps and the wall time of a drop sequence go (timing.csv): the impact stages
+// split by what the pounder does in the step.
+enum class Phase { Relax, Contact, Flight, Rest, Extract, Settle, Count };
+struct PhaseTime {
+  long steps = 0;
+  double simulated_s = 0, wall_s = 0;
+};
 
 struct Stage {
   StageKind kind;
@@ -169,6 +176,8 @@ class DropSequence {
   XdmfSeries series_;
   double last_progress_wall_ = 0;
   bool stage_files_ = true;
+  PhaseTime phase_time_[static_cast<int>(Phase::Count)];
+  Phase step_phase(const Stage& s) const;  // what the last step of stage s was
 };
 
 // Reads the restart file of `tamp run --restart` for a drop sequence.

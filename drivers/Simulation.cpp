@@ -279,7 +279,7 @@ void Simulation::compute_acceleration() {
       *s = ViewN<double, 2>("tamp::acceleration_part", P.capacity);
     }
   {
-    Timed t(*this, &StepProfile::sph);
+    Timed t(*this, &StepProfile::acceleration);
     Acceleration f(P, neighbours_, pair_gradient_factor_, materials_, sph_, artificial_stress_factors_);
     f.a_wall = a_wall_;
     f.a_art = a_art_;
@@ -297,19 +297,22 @@ void Simulation::compute_acceleration() {
     Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
                          TieForceToNodes{tie_.force, mesh.f_tie, tie_.edge_a, tie_.edge_b, tie_.edge_s});
   }
-  Timed t(*this, &StepProfile::sph);
-  if (non_reflecting_.count > 0) {
-    NonReflectingBoundary f(P, materials_, non_reflecting_, config_.sph.spacing);
-    f.a_boundary = a_boundary_;
-    Kokkos::parallel_for("tamp::non_reflecting", real_particles(), f);
+  {
+    Timed t(*this, &StepProfile::boundaries);
+    if (non_reflecting_.count > 0) {
+      NonReflectingBoundary f(P, materials_, non_reflecting_, config_.sph.spacing);
+      f.a_boundary = a_boundary_;
+      Kokkos::parallel_for("tamp::non_reflecting", real_particles(), f);
+    }
+    if (fixed_walls_) {
+      const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
+      WallFriction f(P, materials_, ghosts_.planes, config_.sph.spacing, dt);
+      f.a_wall = a_wall_;
+      f.a_friction = a_friction_;
+      Kokkos::parallel_for("tamp::wall_friction", real_particles(), f);
+    }
   }
-  if (fixed_walls_) {
-    const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
-    WallFriction f(P, materials_, ghosts_.planes, config_.sph.spacing, dt);
-    f.a_wall = a_wall_;
-    f.a_friction = a_friction_;
-    Kokkos::parallel_for("tamp::wall_friction", real_particles(), f);
-  }
+  Timed t(*this, &StepProfile::contact);
   if (body_.active) apply_contact();
 }
 
@@ -491,15 +494,18 @@ void Simulation::step(double dt_override) {
 }
 
 void Simulation::first_half_kick(double dt) {
-  Timed t(*this, &StepProfile::sph);
-  account_half_kick(dt, 0.25 * dt);  // the work of every force over this half kick
+  {
+    Timed t(*this, &StepProfile::energy_account);
+    account_half_kick(dt, 0.25 * dt);  // the work of every force over this half kick
+  }
+  Timed t(*this, &StepProfile::kick_drift);
   Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
   integrate_body_half(0.5 * dt);
 }
 
 void Simulation::drift(double dt) {
   {
-    Timed t(*this, &StepProfile::sph);
+    Timed t(*this, &StepProfile::kick_drift);
     drift_body(dt);
     Kokkos::parallel_for("tamp::drift", real_particles(),
                          Drift(particles_, ghosts_.planes, non_reflecting_, dt, planar_mass_floor(config_.sph.spacing)));
@@ -528,13 +534,13 @@ void Simulation::drift_elements(double dt) {
 void Simulation::rates_and_stress(double dt) {
   Particles& P = particles_;
   {
-    Timed t(*this, &StepProfile::sph);
+    Timed t(*this, &StepProfile::strain_rate_stress);
     ensure_pair_storage();
     Kokkos::parallel_for("tamp::sph::strain_rate_stress", real_particles(),
                          StrainRateAndStress(P, neighbours_, pair_gradient_factor_, materials_, sph_, dt));
   }
   element_stress(dt);
-  Timed t(*this, &StepProfile::sph);
+  Timed t(*this, &StepProfile::pair_stress);
   update_pair_stress();
   const int every = config_.sph.regularise_every;
   if (every > 0 && (steps_ + 1) % every == 0) {
@@ -557,10 +563,13 @@ void Simulation::element_stress(double dt) {
 }
 
 void Simulation::second_half_kick(double dt) {
-  Timed t(*this, &StepProfile::sph);
-  damp_back_ = 0.5 * dt;  // the damping used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
-  Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
-  integrate_body_half(0.5 * dt);
+  {
+    Timed t(*this, &StepProfile::kick_drift);
+    damp_back_ = 0.5 * dt;  // the damping used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
+    Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
+    integrate_body_half(0.5 * dt);
+  }
+  Timed t(*this, &StepProfile::energy_account);
   account_half_kick(dt, -0.25 * dt);
 }
 

@@ -52,14 +52,35 @@ struct NewParticle {
 };
 
 // Wall time of the parts of a step (s), summed over the steps taken while profiling is on
-// (Simulation::set_profiling). Each part ends with a fence, so profiling slows a run a little.
+// (Simulation::set_profiling, `tamp run --profile`). Each part ends with a fence, so
+// profiling slows a run a little.
 struct StepProfile {
-  double search = 0;  // neighbour lists and mirror ghosts
-  double sph = 0;     // particle loops: kicks, drift, strain rate and stress, pair terms, acceleration
-  double fem = 0;     // FEM node update and element pass (tied FEM)
-  double tie = 0;     // tie particles' kinematics and stress, interface traction to the nodes
-  double other = 0;   // contact, non-reflecting boundaries, time step
+  double search = 0;             // neighbour lists and mirror ghosts
+  double kick_drift = 0;         // half kicks and drift of particles and pounder
+  double energy_account = 0;     // the work of every force per half kick (two reductions)
+  double strain_rate_stress = 0; // velocity gradient, density, constitutive update
+  double pair_stress = 0;        // m sigma / rho^2 per particle (and Shepard regularisation)
+  double acceleration = 0;       // the pair force sum
+  double boundaries = 0;         // non-reflecting boundaries and fixed-wall friction
+  double contact = 0;            // pounder <-> particle contact
+  double fem = 0;                // FEM node update and element pass (tied FEM)
+  double tie = 0;                // tie particles' kinematics and stress, interface traction
+  double other = 0;              // the stable time step
   long steps = 0;
+  // The particle parts together.
+  double sph() const {
+    return kick_drift + energy_account + strain_rate_stress + pair_stress + acceleration + boundaries + contact;
+  }
+  double total() const { return sph() + search + fem + tie + other; }
+  // (name, member) of every part, in the order of a step.
+  static std::vector<std::pair<const char*, double StepProfile::*>> parts() {
+    return {{"search", &StepProfile::search},           {"kick_drift", &StepProfile::kick_drift},
+            {"energy_account", &StepProfile::energy_account}, {"strain_rate_stress", &StepProfile::strain_rate_stress},
+            {"pair_stress", &StepProfile::pair_stress}, {"acceleration", &StepProfile::acceleration},
+            {"boundaries", &StepProfile::boundaries},   {"contact", &StepProfile::contact},
+            {"fem", &StepProfile::fem},                 {"tie", &StepProfile::tie},
+            {"time_step", &StepProfile::other}};
+  }
 };
 
 // Work done on the real particles since the start (J; < 0: energy taken out of them) by the

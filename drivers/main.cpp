@@ -193,8 +193,21 @@ std::pair<std::string, double> parse_set(const std::string& s) {
   return {s.substr(0, eq), value};
 }
 
+// profile.csv of `tamp run --profile`: the wall time of each part of the step.
+void write_profile(const std::string& out, const Simulation& sim) {
+  const tamp::StepProfile& p = sim.profile();
+  std::ofstream f(out + "/profile.csv");
+  f << "part,wall_s,share,us_per_step\n";
+  const double total = p.total();
+  for (const auto& [name, member] : tamp::StepProfile::parts())
+    f << name << "," << fmt("%.6g", p.*member) << "," << fmt("%.4f", total > 0 ? p.*member / total : 0.0) << ","
+      << fmt("%.4g", p.steps > 0 ? 1e6 * p.*member / p.steps : 0.0) << "\n";
+  f << "all," << fmt("%.6g", total) << ",1," << fmt("%.4g", p.steps > 0 ? 1e6 * total / p.steps : 0.0) << "\n";
+  tamp::log::info("profile of " + std::to_string(p.steps) + " steps written to " + out + "/profile.csv");
+}
+
 int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart,
-            int stop_after, const std::vector<std::string>& sets) {
+            int stop_after, const std::vector<std::string>& sets, bool profile) {
   Config cfg = load_deck(deck);  // validated before any work
   check_memory(cfg, deck);
   for (const auto& s : sets) {   // --set material.key=value (e.g. clay.crush_pressure=30000)
@@ -224,9 +237,12 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
   { std::ofstream(out + "/deck.toml") << to_toml(cfg); }
 
   Simulation sim(cfg);
+  sim.set_profiling(profile);
   if (cfg.schedule.enabled) {
     print_plan(cfg, sim, std::cerr);
-    return run_sequence(cfg, sim, out, restart.empty() ? nullptr : &resume, stop_after);
+    const int rc = run_sequence(cfg, sim, out, restart.empty() ? nullptr : &resume, stop_after);
+    if (profile) write_profile(out, sim);
+    return rc;
   }
   if (stop_after >= 0) throw std::invalid_argument("--stop-after-stage needs a deck with a [schedule]");
   if (!restart.empty()) {
@@ -311,6 +327,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
   done << "finished: " << sim.steps() << " steps, t = " << sim.time() << " s, wall " << fmt("%.2f", wall)
        << " s, " << fmt("%.3g", sim.particle_count() * double(sim.steps()) / wall) << " particle-steps/s";
   tamp::log::info(done.str());
+  if (profile) write_profile(out, sim);
   if (g_interrupted) {
     tamp::log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; checkpoint " + checkpoint_path +
                      " (resume with: tamp run DECK --restart " + checkpoint_path + " --out NEWDIR)");
@@ -437,6 +454,8 @@ int main(int argc, char** argv) {
   run->add_option("--set", sets, "Override a parameter: KEY=VALUE, e.g. clay.Su=12000 or clay.crush_pressure=30000");
   run->add_option("--stop-after-stage", stop_after,
                   "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
+  bool profile = false;
+  run->add_flag("--profile", profile, "Time each part of the step (fences between parts) and write profile.csv");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
   std::string data_path, run_dir, params, effect = "none", material = "clay";
@@ -483,7 +502,7 @@ int main(int argc, char** argv) {
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
-    if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets);
+    if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile);
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method);

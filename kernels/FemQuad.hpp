@@ -152,9 +152,7 @@ KOKKOS_INLINE_FUNCTION void quad_mass_weights(const double r[4], const double z[
   for (int a = 0; a < 2; ++a)
     for (int b = 0; b < 2; ++b) {
       const QuadPoint q = quad_point(pts[a], pts[b], r, z);
-      const double *N = q.N, *dxi = q.dxi, *deta = q.deta;
-      const double r_xi = q.r_xi, r_eta = q.r_eta, z_xi = q.z_xi, z_eta = q.z_eta, rp = q.rp, detJ = q.detJ;
-      for (int k = 0; k < 4; ++k) w[k] += 2.0 * pi * rp * N[k] * detJ;
+      for (int k = 0; k < 4; ++k) w[k] += 2.0 * pi * q.rp * q.N[k] * q.detJ;
     }
 }
 

@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
           sim.set_profiling(true);
           for (int k = 0; k < steps; ++k) sim.step();
           const StepProfile& p = sim.profile();
-          const double t = p.sph + p.fem + p.tie + p.search + p.other;
+          const double t = p.sph() + p.fem + p.tie + p.search + p.other;
           total.push_back(t);
           if (total.size() == 1 || t <= *std::min_element(total.begin(), total.end())) best = p;
           np = sim.particle_count(); ne = sim.fem() ? sim.fem()->mesh().n_elements : 0; nt = sim.tie_particle_count();
@@ -81,9 +81,9 @@ int main(int argc, char** argv) {
         }
         std::sort(total.begin(), total.end());
         const double med = total[total.size() / 2];
-        const double t = best.sph + best.fem + best.tie + best.search + best.other;
+        const double t = best.sph() + best.fem + best.tie + best.search + best.other;
         std::printf("%10.4f %9.4f %9d %8d %13d %12.3f %9.3g %5.1f %5.1f %5.1f %8.1f %7.1f\n", dp, he, np, ne, nt,
-                    1e3 * med / steps, dt, 100 * best.sph / t, 100 * best.fem / t, 100 * best.tie / t,
+                    1e3 * med / steps, dt, 100 * best.sph() / t, 100 * best.fem / t, 100 * best.tie / t,
                     100 * best.search / t, 100 * best.other / t);
         std::fflush(stdout);
       }
@@ -123,16 +123,16 @@ int main(int argc, char** argv) {
         sim.set_profiling(true);
         for (int k = 0; k < steps; ++k) sim.step();
         const StepProfile& p = sim.profile();
-        const double t = p.sph + p.fem + p.tie + p.search + p.other;
+        const double t = p.sph() + p.fem + p.tie + p.search + p.other;
         total.push_back(t);
         if (total.size() == 1 || t <= *std::min_element(total.begin(), total.end())) best = p;
         np = sim.particle_count(); ne = fb.nr * fb.nz; nt = sim.tie_particle_count();
       }
       std::sort(total.begin(), total.end());
       const double med = total[total.size() / 2];
-      const double t = best.sph + best.fem + best.tie + best.search + best.other;
+      const double t = best.sph() + best.fem + best.tie + best.search + best.other;
       std::printf("%10.4f %9d %8d %13d %12.3f %5.1f %5.1f %5.1f %8.1f %7.1f\n", dp, np, ne, nt, 1e3 * med / steps,
-                  100 * best.sph / t, 100 * best.fem / t, 100 * best.tie / t, 100 * best.search / t, 100 * best.other / t);
+                  100 * best.sph() / t, 100 * best.fem / t, 100 * best.tie / t, 100 * best.search / t, 100 * best.other / t);
     }
   }
   Kokkos::finalize();

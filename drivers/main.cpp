@@ -74,6 +74,14 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
                          std::to_string(sim.tie_edge_count()) + " interface edges\n"
                    : std::string())
      << "materials:\n";
+  // Each material's own stable step h / c_p (at rest) against the run's, and its particles:
+  // what a material would need if it were stepped alone (issue 14: multi-rate stepping).
+  const tamp::ParticleSnapshot snap = sim.snapshot();
+  std::vector<long> count(cfg.materials.size(), 0);
+  for (int m : snap.material) ++count[m];
+  double c_max = 0;
+  for (size_t k = 0; k < cfg.materials.size(); ++k)
+    if (count[k] > 0) c_max = std::max(c_max, sim.materials()[k].wave_speed());
   for (size_t k = 0; k < cfg.materials.size(); ++k) {
     const auto& m = cfg.materials[k];
     const auto& p = sim.materials()[k];
@@ -84,7 +92,11 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
       if (is_effect_key(k->key) && x == k->fallback.value_or(0.0)) continue;
       os << ", " << k->key << " " << x << (k->unit.empty() ? "" : " " + k->unit);
     }
-    os << ", c_p " << fmt("%.1f", p.wave_speed()) << " m/s\n";
+    os << ", c_p " << fmt("%.1f", p.wave_speed()) << " m/s";
+    if (count[k] > 0 && c_max > 0)
+      os << "; " << count[k] << " particles, own stable step " << fmt("%.2f", c_max / p.wave_speed())
+         << " x the run's";
+    os << "\n";
   }
   const double dt = sim.stable_dt();
   os << "time step:   " << fmt("%.3g", dt) << " s (CFL " << cfg.run.cfl << "), about "

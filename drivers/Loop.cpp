@@ -11,12 +11,15 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
 #include "drivers/DropSequence.hpp"
+#include "drivers/ForwardRuns.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace tamp {
@@ -240,6 +243,38 @@ std::string residuals_json(const std::vector<Residual>& r) {
 
 // ------------------------------------------------------------------ calibration
 
+namespace {
+// The forward runs of `opt` (its runner, or one made here for this fit).
+struct Runner {
+  std::unique_ptr<ForwardRuns> own;
+  ForwardRuns* runs;
+  explicit Runner(const CalibrateOptions& opt) {
+    if (opt.runner) {
+      runs = opt.runner;
+    } else {
+      ForwardRunOptions fo;
+      fo.scratch = opt.scratch;
+      own = std::make_unique<ForwardRuns>(fo);
+      runs = own.get();
+    }
+  }
+};
+
+// chi2 of a forward run: infinite for a failed run (a failed point, not a crash).
+double chi2_of(const ObservationSet& data, const ForwardResult& r, Eigen::VectorXd* normalised = nullptr) {
+  const int n = static_cast<int>(data.observations.size());
+  if (normalised) *normalised = Eigen::VectorXd::Zero(n);
+  if (!r.ok) return std::numeric_limits<double>::infinity();
+  const auto res = residuals(data, r.outputs);
+  double chi2 = 0;
+  for (int i = 0; i < n; ++i) {
+    chi2 += res[i].normalised * res[i].normalised;
+    if (normalised) (*normalised)(i) = res[i].normalised;
+  }
+  return std::isfinite(chi2) ? chi2 : std::numeric_limits<double>::infinity();
+}
+}  // namespace
+
 double FitResult::bic() const { return chi2 + static_cast<double>(names.size()) * std::log(static_cast<double>(n)); }
 
 namespace {
@@ -264,16 +299,37 @@ FitResult calibrate(const Config& cfg0, const ObservationSet& data, const std::v
   FitResult fit;
   fit.names = params;
   fit.n = n;
-  auto eval = [&](const Eigen::VectorXd& tt, RunOutputs* out) {
+  Runner runner(opt);
+  auto config_at = [&](const Eigen::VectorXd& tt) {
     Config c = cfg0;
     for (int j = 0; j < p; ++j) set_param(c, params[j], from_t(params[j], tt(j)));
-    RunOutputs o = run_forward(c, opt.scratch);
+    return c;
+  };
+  auto eval = [&](const Eigen::VectorXd& tt, RunOutputs* out) {
+    const ForwardResult fr = runner.runs->run(config_at(tt));
     ++fit.runs;
-    const auto res = residuals(data, o);
     Eigen::VectorXd r(n);
-    for (int i = 0; i < n; ++i) r(i) = res[i].normalised;
-    if (out) *out = o;
+    if (!std::isfinite(chi2_of(data, fr, &r))) r.setConstant(1e150);  // a failed point: never accepted
+    if (out) *out = fr.outputs;
     return r;
+  };
+  // the finite-difference columns at t, run side by side
+  auto jacobian = [&](const Eigen::VectorXd& tt, const Eigen::VectorXd& r0, double step) {
+    std::vector<Config> batch;
+    for (int j = 0; j < p; ++j) {
+      Eigen::VectorXd tj = tt;
+      tj(j) += step;
+      batch.push_back(config_at(tj));
+    }
+    const auto results = runner.runs->run(batch);
+    fit.runs += p;
+    Eigen::MatrixXd Jm(n, p);
+    for (int j = 0; j < p; ++j) {
+      Eigen::VectorXd rj;
+      Jm.col(j) = std::isfinite(chi2_of(data, results[j], &rj)) ? Eigen::VectorXd((rj - r0) / step)
+                                                                 : Eigen::VectorXd::Zero(n);  // failed: no information
+    }
+    return Jm;
   };
   auto describe = [&](const Eigen::VectorXd& tt) {
     std::string s;
@@ -287,11 +343,7 @@ FitResult calibrate(const Config& cfg0, const ObservationSet& data, const std::v
   double lambda = 1e-2;
   Eigen::MatrixXd J(n, p);
   for (int it = 0; it < opt.max_iterations; ++it) {
-    for (int j = 0; j < p; ++j) {
-      Eigen::VectorXd tj = t;
-      tj(j) += opt.step;
-      J.col(j) = (eval(tj, nullptr) - r) / opt.step;
-    }
+    J = jacobian(t, r, opt.step);
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * r;
     bool accepted = false;
@@ -350,16 +402,26 @@ FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std
     RunOutputs out;
     Eigen::VectorXd r;
   };
-  auto eval = [&](const Eigen::VectorXd& tt) {
-    Config c = cfg0;
-    for (int j = 0; j < p; ++j) set_param(c, params[j], from_t(params[j], tt(j)));
-    Point q{tt, 0.0, run_forward(c, opt.scratch), Eigen::VectorXd(n)};
-    ++fit.runs;
-    const auto res = residuals(data, q.out);
-    for (int i = 0; i < n; ++i) q.r(i) = res[i].normalised;
-    q.chi2 = q.r.squaredNorm();
+  Runner runner(opt);
+  // the points of `ts`, run side by side (a failed run is a point of infinite chi2)
+  auto eval_batch = [&](const std::vector<Eigen::VectorXd>& ts) {
+    std::vector<Config> batch;
+    for (const auto& tt : ts) {
+      Config c = cfg0;
+      for (int j = 0; j < p; ++j) set_param(c, params[j], from_t(params[j], tt(j)));
+      batch.push_back(c);
+    }
+    const auto results = runner.runs->run(batch);
+    fit.runs += static_cast<int>(ts.size());
+    std::vector<Point> q;
+    for (size_t k = 0; k < ts.size(); ++k) {
+      Point pt{ts[k], 0.0, results[k].outputs, Eigen::VectorXd(n)};
+      pt.chi2 = chi2_of(data, results[k], &pt.r);
+      q.push_back(pt);
+    }
     return q;
   };
+  auto eval = [&](const Eigen::VectorXd& tt) { return eval_batch({tt})[0]; };
   auto describe = [&](const Eigen::VectorXd& tt) {
     std::string s;
     for (int j = 0; j < p; ++j) s += (j ? ", " : "") + params[j] + " = " + fmt_g(from_t(params[j], tt(j)));
@@ -372,13 +434,13 @@ FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std
                                               "; it must start > 0 (it is fitted in log space)");
     t0(j) = to_t(params[j], v);
   }
-  std::vector<Point> s;
-  s.push_back(eval(t0));
+  std::vector<Eigen::VectorXd> first{t0};  // the first simplex, run side by side
   for (int j = 0; j < p; ++j) {
     Eigen::VectorXd t = t0;
     t(j) += j < static_cast<int>(opt.simplex_steps.size()) ? opt.simplex_steps[j] : 0.3;
-    s.push_back(eval(t));
+    first.push_back(t);
   }
+  std::vector<Point> s = eval_batch(first);
   auto order = [&] { std::sort(s.begin(), s.end(), [](const Point& a, const Point& b) { return a.chi2 < b.chi2; }); };
   order();
   if (opt.verbose) log::info("calibrate (Nelder-Mead): start " + describe(s[0].t) + ": chi2 " + fmt_g(s[0].chi2));
@@ -399,7 +461,11 @@ FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std
       if (xc.chi2 < (outside ? xr.chi2 : s[p].chi2)) {
         s[p] = xc;
       } else {  // shrink toward the best
-        for (int k = 1; k <= p && fit.runs < budget; ++k) s[k] = eval(s[0].t + 0.5 * (s[k].t - s[0].t));
+        std::vector<Eigen::VectorXd> shrunk;
+        for (int k = 1; k <= p && fit.runs + static_cast<int>(shrunk.size()) < budget; ++k)
+          shrunk.push_back(s[0].t + 0.5 * (s[k].t - s[0].t));
+        const std::vector<Point> q = eval_batch(shrunk);
+        for (size_t k = 0; k < q.size(); ++k) s[k + 1] = q[k];
       }
     }
     order();
@@ -410,11 +476,15 @@ FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std
   // linearised uncertainty from forward differences at the best point
   Eigen::MatrixXd J(n, p);
   const double h = 0.05;
+  std::vector<Eigen::VectorXd> columns;
   for (int j = 0; j < p; ++j) {
     Eigen::VectorXd t = best.t;
     t(j) += h;
-    J.col(j) = (eval(t).r - best.r) / h;
+    columns.push_back(t);
   }
+  const std::vector<Point> q = eval_batch(columns);
+  for (int j = 0; j < p; ++j)  // a failed column carries no information
+    J.col(j) = std::isfinite(q[j].chi2) ? Eigen::VectorXd((q[j].r - best.r) / h) : Eigen::VectorXd::Zero(n);
   const Eigen::MatrixXd cov = (J.transpose() * J + 1e-12 * Eigen::MatrixXd::Identity(p, p)).inverse();
   for (int j = 0; j < p; ++j) {
     const double v = from_t(params[j], best.t(j));
@@ -485,18 +555,22 @@ namespace {
 // has small jumps in which a local search alone gets stuck.
 FitResult scan_then_polish(Config start, const ObservationSet& data, const std::vector<std::string>& params,
                            const std::vector<double>& factors, double step, int polish_runs, const CalibrateOptions& o) {
+  Runner runner(o);
   int runs = 0;
   for (const auto& name : params) {
     const double v0 = get_param(start, name);
     double v_best = v0, best = std::numeric_limits<double>::infinity();
+    std::vector<Config> batch;  // the scan's points, run side by side
     for (double f : factors) {
       Config c = start;
       set_param(c, name, v0 * f);
-      const auto res = residuals(data, run_forward(c, o.scratch));
-      ++runs;
-      double chi2 = 0;
-      for (const auto& r : res) chi2 += r.normalised * r.normalised;
-      if (chi2 < best) { best = chi2; v_best = v0 * f; }
+      batch.push_back(c);
+    }
+    const auto results = runner.runs->run(batch);
+    runs += static_cast<int>(batch.size());
+    for (size_t k = 0; k < factors.size(); ++k) {
+      const double chi2 = chi2_of(data, results[k]);
+      if (chi2 < best) { best = chi2; v_best = v0 * factors[k]; }
     }
     set_param(start, name, v_best);
   }
@@ -513,6 +587,21 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   DiagnoseOptions opt = opt0;
   fs::create_directories(out_dir);
   if (opt.fit.scratch.empty()) opt.fit.scratch = out_dir + "/scratch";
+  std::unique_ptr<ForwardRuns> own_runner;
+  if (!opt.fit.runner) {
+    ForwardRunOptions fo;
+    fo.jobs = opt.jobs;
+    const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    fo.threads_per_job = std::max(1, cores / std::max(1, opt.jobs));
+    fo.scratch = opt.fit.scratch;
+    fo.cache = out_dir + "/cache";
+    fo.tamp_binary = opt.tamp_binary;
+    fo.timeout_s = opt.run_timeout_s;
+    own_runner = std::make_unique<ForwardRuns>(fo);
+    opt.fit.runner = own_runner.get();
+  }
+  ForwardRuns& runner = *opt.fit.runner;
+  const auto wall0 = std::chrono::steady_clock::now();
   if (opt.baseline_params.empty()) opt.baseline_params = {data.target_material + ".Su"};
   const Config base = load_deck(data.scenario);
   const std::string& mat = data.target_material;
@@ -591,6 +680,12 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   js["error_before"] = baseline.error;
   js["error_after"] = chosen->error;
   js["bic_margin"] = opt.bic_margin;
+  js["forward_runs"] = {{"run", runner.runs()},
+                        {"from_cache", runner.cache_hits()},
+                        {"failed", runner.failures()},
+                        {"jobs", runner.options().jobs},
+                        {"threads_per_job", runner.options().threads_per_job},
+                        {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()}};
   js["baseline"] = fit_json("none", baseline);
   js["candidates"] = nlohmann::ordered_json::array();
   for (const auto& [name, fit] : fits) js["candidates"].push_back(fit_json(name, fit));
@@ -621,7 +716,9 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
      << "compacts heaves less.\n\n## Residuals after the selected fit\n\n"
      << residual_table(chosen->residuals);
   log::info("diagnose: selected '" + selected + "', error before " + fmt_g(baseline.error, "%.3f") + ", after " +
-            fmt_g(chosen->error, "%.3f") + "; " + out_dir + "/diagnosis.json");
+            fmt_g(chosen->error, "%.3f") + "; " + std::to_string(runner.runs()) + " forward runs (" +
+            std::to_string(runner.cache_hits()) + " more from the cache, " + std::to_string(runner.failures()) +
+            " failed); " + out_dir + "/diagnosis.json");
   return selected;
 }
 

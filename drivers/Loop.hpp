@@ -53,14 +53,19 @@ struct FitResult {
   double bic() const;                  // chi2 + k ln n (known uncertainties)
 };
 
+class ForwardRuns;  // drivers/ForwardRuns.hpp
+
 struct CalibrateOptions {
   std::string method = "nelder-mead";  // or "lm" (Levenberg-Marquardt with Eigen)
   int max_iterations = 8;  // LM iterations
   int max_runs = 0;        // Nelder-Mead budget of forward runs; 0 = 12 + 20 per parameter
   std::vector<double> simplex_steps;  // Nelder-Mead first steps in the fitted coordinate (default 0.3)
   double step = 0.05;      // finite-difference step in the transformed parameter (~5 %)
-  std::string scratch;     // folder for the forward runs
+  std::string scratch;     // folder for the forward runs (when `runner` is not given)
   bool verbose = true;
+  // Runs the forward runs (side by side, remembered); null: one in this process at a time,
+  // in `scratch`, without a cache.
+  ForwardRuns* runner = nullptr;
 };
 
 // Fits the named parameters, starting from their values in `cfg`: Nelder-Mead (default;
@@ -90,6 +95,12 @@ struct DiagnoseOptions {
   // chi2 by more than 6 + ln n (~8.3): p ~ 0.4 % per candidate under the null.
   double bic_margin = 6.0;
   CalibrateOptions fit;
+  // Forward runs (drivers/ForwardRuns.hpp): this many side by side (child processes of
+  // `tamp_binary` when > 1), each run remembered in DIR/cache so that a diagnosis started
+  // again in the same folder does not redo them.
+  int jobs = 1;
+  std::string tamp_binary;
+  double run_timeout_s = 0;  // a forward run longer than this is a failed point (0 = no limit)
 };
 
 // Calibrates the baseline, refits with each catalogued effect, ranks by BIC, writes

@@ -1,4 +1,5 @@
 #include "drivers/Simulation.hpp"
+#include "kernels/DeterministicSum.hpp"
 #include "core/Format.hpp"
 #include "core/ParticleGrid.hpp"
 
@@ -624,8 +625,7 @@ void Simulation::account_half_kick(double dt, double shift) {
   f.with_friction = fixed_walls_ ? 1 : 0;
   f.with_contact = contact ? 1 : 0;
   f.with_art = sph_.artificial_stress_epsilon > 0 ? 1 : 0;
-  Kokkos::parallel_reduce("tamp::energy::fluxes", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
-                          Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(p.data(), count));
+  p = fixed_order_sums("tamp::energy::fluxes", P.n_real, static_cast<int>(count), f);  // same on any thread count
   const double h = 0.5 * dt;  // the half kick
   ledger_.damping_J += h * p[0];
   ledger_.boundary_J += h * p[1];
@@ -641,8 +641,7 @@ std::vector<MaterialEnergy> Simulation::material_energies() const {
   const unsigned count = 4 * static_cast<unsigned>(nm);
   std::vector<double> sums(count, 0.0);
   MaterialEnergies f(P, static_cast<unsigned>(nm), materials_, config_.gravity);
-  Kokkos::parallel_reduce("tamp::energy::materials", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), f,
-                          Kokkos::View<double*, HostSpace, Kokkos::MemoryUnmanaged>(sums.data(), count));
+  sums = fixed_order_sums("tamp::energy::materials", P.n_real, static_cast<int>(count), f);
   std::vector<MaterialEnergy> out(nm);
   for (size_t k = 0; k < nm; ++k) out[k] = {sums[4 * k], sums[4 * k + 1], sums[4 * k + 2], sums[4 * k + 3]};
   return out;

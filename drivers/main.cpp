@@ -20,6 +20,7 @@
 #include <iostream>
 #include <map>
 #include <sstream>
+#include <thread>
 
 #include "core/Deck.hpp"
 #include "core/Format.hpp"
@@ -27,6 +28,7 @@
 #include "core/Log.hpp"
 #include "core/Output.hpp"
 #include "drivers/DropSequence.hpp"
+#include "drivers/ForwardRuns.hpp"
 #include "drivers/Loop.hpp"
 #include "drivers/Simulation.hpp"
 
@@ -117,8 +119,9 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
 
 // A dynamic-replacement run: the stage sequence of the deck's [schedule].
 int run_sequence(const Config& cfg, Simulation& sim, const std::string& out, const tamp::Checkpoint* resume,
-                 int stop_after) {
+                 int stop_after, bool stage_files) {
   tamp::DropSequence seq(sim, cfg, out);
+  seq.set_stage_files(stage_files);
   if (resume) {
     seq.restore(*resume);
     tamp::log::info("restarted at stage " + std::to_string(seq.next_stage()) + " of " +
@@ -219,7 +222,7 @@ void write_profile(const std::string& out, const Simulation& sim) {
 }
 
 int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart,
-            int stop_after, const std::vector<std::string>& sets, bool profile) {
+            int stop_after, const std::vector<std::string>& sets, bool profile, bool forward) {
   Config cfg = load_deck(deck);  // validated before any work
   check_memory(cfg, deck);
   for (const auto& s : sets) {   // --set material.key=value (e.g. clay.crush_pressure=30000)
@@ -251,8 +254,12 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
   Simulation sim(cfg);
   sim.set_profiling(profile);
   if (cfg.schedule.enabled) {
-    print_plan(cfg, sim, std::cerr);
-    const int rc = run_sequence(cfg, sim, out, restart.empty() ? nullptr : &resume, stop_after);
+    if (forward) {
+      tamp::log::set_level(tamp::log::Level::Quiet);  // errors still reach stderr
+    } else {
+      print_plan(cfg, sim, std::cerr);
+    }
+    const int rc = run_sequence(cfg, sim, out, restart.empty() ? nullptr : &resume, stop_after, !forward);
     if (profile) write_profile(out, sim);
     return rc;
   }
@@ -375,19 +382,52 @@ int cmd_compare(const std::string& data_path, const std::string& run_dir) {
   return 0;
 }
 
-int cmd_calibrate(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                  int iterations, const std::string& method) {
-  const tamp::ObservationSet data = tamp::load_observations(data_path);
-  const Config cfg = load_deck(data.scenario);
-  if (fs::exists(out) && !force) {
-    tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
+// The executable of this process, for the forward runs' child processes.
+std::string this_executable() {
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : p.string();
+}
+
+// A result folder of calibrate / diagnose: refused if it exists, unless --force (replaced)
+// or --resume (kept: its run cache saves the forward runs already done). Returns 0 or 2.
+int prepare_loop_folder(const std::string& out, bool force, bool resume) {
+  if (force && resume) {
+    tamp::log::error("--force and --resume: give one (--force replaces '" + out + "', --resume continues it)");
     return 2;
   }
+  if (fs::exists(out) && !force && !resume) {
+    tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it or --resume to continue it");
+    return 2;
+  }
+  if (fs::exists(out) && force) fs::remove_all(out);
   fs::create_directories(out);
+  return 0;
+}
+
+tamp::ForwardRunOptions forward_options(const std::string& out, int jobs) {
+  if (jobs < 1) throw std::invalid_argument("--jobs " + std::to_string(jobs) + ": allowed: 1 or more");
+  tamp::ForwardRunOptions fo;
+  fo.jobs = jobs;
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  fo.threads_per_job = std::max(1, cores / jobs);
+  fo.scratch = out + "/scratch";
+  fo.cache = out + "/cache";
+  fo.tamp_binary = this_executable();
+  return fo;
+}
+
+int cmd_calibrate(const std::string& data_path, const std::string& params, const std::string& out, bool force,
+                  int iterations, const std::string& method, int jobs, bool resume) {
+  const tamp::ObservationSet data = tamp::load_observations(data_path);
+  const Config cfg = load_deck(data.scenario);
+  if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
+  tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::CalibrateOptions opt;
   opt.scratch = out + "/scratch";
   opt.max_iterations = iterations;
   opt.method = method;
+  opt.runner = &runner;
   const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
   const tamp::FitResult f = tamp::calibrate(cfg, data, names, opt);
   nlohmann::ordered_json js;
@@ -399,6 +439,8 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
   js["chi2"] = f.chi2;
   js["error"] = f.error;
   js["runs"] = f.runs;
+  js["forward_runs"] = {{"run", runner.runs()}, {"from_cache", runner.cache_hits()}, {"failed", runner.failures()},
+                        {"jobs", jobs}};
   std::ofstream(out + "/calibration.json") << js.dump(2) << "\n";
   std::ofstream(out + "/residuals.json") << tamp::residuals_json(f.residuals);
   std::cout << tamp::residual_table(f.residuals) << "forward runs: " << f.runs << "; written: " << out << "/calibration.json\n";
@@ -406,13 +448,12 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
 }
 
 int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                 int iterations, double bic_margin) {
+                 int iterations, double bic_margin, int jobs, bool resume) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
-  if (fs::exists(out) && !force) {
-    tamp::log::error("result folder '" + out + "' exists; pass --force to overwrite it");
-    return 2;
-  }
+  if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
+  tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::DiagnoseOptions opt;
+  opt.fit.runner = &runner;
   opt.baseline_params = split_list(params);
   opt.fit.max_iterations = iterations;
   opt.bic_margin = bic_margin;
@@ -467,6 +508,9 @@ int main(int argc, char** argv) {
   run->add_option("--stop-after-stage", stop_after,
                   "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
   bool profile = false;
+  bool forward = false;
+  run->add_flag("--forward", forward, "A forward run of calibrate/diagnose: quiet, no per-stage snapshots or checkpoints")
+      ->group("");  // internal
   run->add_flag("--profile", profile, "Time each part of the step (fences between parts) and write profile.csv");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
@@ -486,6 +530,10 @@ int main(int argc, char** argv) {
   calibrate->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations (default 8)");
   calibrate->add_option("--method", method, "nelder-mead (default) or lm");
   calibrate->add_flag("--force", force, "Overwrite an existing result folder");
+  int jobs = 1;
+  bool resume = false;
+  calibrate->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
+  calibrate->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
   auto* diagnose = app.add_subcommand("diagnose", "Calibrate the baseline, refit with each catalogued effect, rank by BIC");
   diagnose->add_option("data", data_path, "Data file (TOML)")->required();
   diagnose->add_option("--params", params, "Baseline parameters (default <target>.Su)");
@@ -495,6 +543,8 @@ int main(int argc, char** argv) {
                        "How much an effect must lower BIC to be selected (default 6, 'strong' evidence)")
       ->check(CLI::NonNegativeNumber);
   diagnose->add_flag("--force", force, "Overwrite an existing result folder");
+  diagnose->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
+  diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
   synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
   synth->add_option("--effect", effect, "none, compaction, rate or remoulding (default none)");
@@ -514,11 +564,11 @@ int main(int argc, char** argv) {
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
-    if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile);
+    if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile, forward);
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
-    if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method);
-    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin);
+    if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method, jobs, resume);
+    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

@@ -3,6 +3,7 @@
 #pragma once
 #include "core/Material.hpp"
 #include "core/Particles.hpp"
+#include "kernels/DeterministicSum.hpp"
 #include "kernels/Mirror.hpp"
 
 namespace tamp {
@@ -96,21 +97,19 @@ struct Energies {
   double total() const { return kinetic + internal + potential; }
 };
 
-// Kinetic, internal and gravitational energy of the real particles (ring masses).
-// Three plain sums: portable between Kokkos 3.4 and 4.x without a custom reducer.
+// Kinetic, internal and gravitational energy of the real particles (ring masses), summed
+// in a fixed order (kernels/DeterministicSum.hpp): the same on any number of threads.
 inline Energies energy_sums(const Particles& p, double gravity) {
-  using policy = Kokkos::RangePolicy<ExecSpace>;
   auto x = p.x; auto v = p.v; auto m = p.mass; auto u = p.internal_energy;
+  const auto s = fixed_order_sum<3>("tamp::energy::sums", p.n_real, KOKKOS_LAMBDA(int i, double* e) {
+    e[0] += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
+    e[1] += m(i) * u(i);
+    e[2] += m(i) * gravity * x(i, 1);
+  });
   Energies e;
-  Kokkos::parallel_reduce("tamp::energy::kinetic", policy(0, p.n_real), KOKKOS_LAMBDA(int i, double& s) {
-    s += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
-  }, e.kinetic);
-  Kokkos::parallel_reduce("tamp::energy::internal", policy(0, p.n_real), KOKKOS_LAMBDA(int i, double& s) {
-    s += m(i) * u(i);
-  }, e.internal);
-  Kokkos::parallel_reduce("tamp::energy::potential", policy(0, p.n_real), KOKKOS_LAMBDA(int i, double& s) {
-    s += m(i) * gravity * x(i, 1);
-  }, e.potential);
+  e.kinetic = s[0];
+  e.internal = s[1];
+  e.potential = s[2];
   return e;
 }
 

@@ -17,6 +17,7 @@
 #pragma once
 #include "core/Material.hpp"
 #include "core/Particles.hpp"
+#include "kernels/DeterministicSum.hpp"
 
 namespace tamp {
 
@@ -161,30 +162,21 @@ struct ContactSums {
   int touching = 0;
 };
 
-// The power alone, sum F_i . (v_i - V), W.
-inline double contact_power(const ViewN<double, 2>& force, const ViewN<double, 2>& v, int n, double body_vr,
-                            double body_vz) {
-  double power = 0;
-  Kokkos::parallel_reduce("tamp::contact::power", Kokkos::RangePolicy<ExecSpace>(0, n), KOKKOS_LAMBDA(int i, double& p) {
-    p += force(i, 0) * (v(i, 0) - body_vr) + force(i, 1) * (v(i, 1) - body_vz);
-  }, power);
-  return power;
-}
-
+// The force on the particles feeds the pounder's dynamics: summed in a fixed order, so that
+// a run gives the same answer on any number of threads.
 inline ContactSums contact_sums(const ViewN<double, 2>& force, const ViewN<double, 2>& v, int n,
                                 double body_vr, double body_vz) {
-  using policy = Kokkos::RangePolicy<ExecSpace>;
+  const auto t = fixed_order_sum<4>("tamp::contact::sums", n, KOKKOS_LAMBDA(int i, double* s) {
+    s[0] += force(i, 0);
+    s[1] += force(i, 1);
+    s[2] += force(i, 0) * (v(i, 0) - body_vr) + force(i, 1) * (v(i, 1) - body_vz);
+    s[3] += (force(i, 0) != 0.0 || force(i, 1) != 0.0) ? 1.0 : 0.0;
+  });
   ContactSums s;
-  Kokkos::parallel_reduce("tamp::contact::force_r", policy(0, n), KOKKOS_LAMBDA(int i, double& f) {
-    f += force(i, 0);
-  }, s.force_r);
-  Kokkos::parallel_reduce("tamp::contact::force_z", policy(0, n), KOKKOS_LAMBDA(int i, double& f) {
-    f += force(i, 1);
-  }, s.force_z);
-  s.power = contact_power(force, v, n, body_vr, body_vz);
-  Kokkos::parallel_reduce("tamp::contact::touching", policy(0, n), KOKKOS_LAMBDA(int i, int& c) {
-    c += (force(i, 0) != 0.0 || force(i, 1) != 0.0) ? 1 : 0;
-  }, s.touching);
+  s.force_r = t[0];
+  s.force_z = t[1];
+  s.power = t[2];
+  s.touching = static_cast<int>(t[3]);
   return s;
 }
 

@@ -10,6 +10,7 @@
 
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
+#include "drivers/ForwardRuns.hpp"
 #include "drivers/Loop.hpp"
 
 // Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
@@ -186,4 +187,78 @@ TEST_CASE("Loop: a damaged run folder is an error naming the file, row and colum
   write("blows.csv", "blow,crater_depth_m\n1\n");
   CHECK_THAT(error(), Catch::Contains("blows.csv row 2 has 1 cells; the header has 2"));
   fs::remove_all(dir);
+}
+
+TEST_CASE("Loop: forward runs side by side give the answers of one at a time; the cache skips finished runs; a "
+          "failed run is a failed point", "[loop][forward-runs]") {
+  // Three decks of the tiny scenario (clay Su 0.8, 1, 1.25 of its value). One at a time in
+  // this process on 2 threads, against 2 child processes of 1 thread each: every summary and
+  // blow value must be equal to the last bit (deterministic reductions, decks that
+  // round-trip), which is what lets a diagnosis give the same answer on any number of workers.
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const Config base = load_deck(tiny);
+  std::vector<Config> batch;
+  for (double f : {0.8, 1.0, 1.25}) {
+    Config c = base;
+    tamp::set_param(c, "clay.Su", f * tamp::get_param(base, "clay.Su"));
+    batch.push_back(c);
+  }
+  batch.push_back(batch[1]);  // the same deck twice: run once
+  const std::string d = temp_dir("forward");
+  tamp::ForwardRunOptions one;
+  one.scratch = d + "/one";
+  one.cache = d + "/cache-one";
+  tamp::ForwardRunOptions two = one;
+  two.jobs = 2;
+  two.threads_per_job = 1;
+  two.scratch = d + "/two";
+  two.cache = d + "/cache-two";
+  two.tamp_binary = TAMP_BINARY;
+  tamp::ForwardRuns a(one), b(two);
+  const auto ra = a.run(batch);
+  const auto rb = b.run(batch);
+  CHECK(a.runs() == 3);
+  CHECK(b.runs() == 3);
+  REQUIRE(ra.size() == 4);
+  int compared = 0;
+  for (size_t k = 0; k < ra.size(); ++k) {
+    REQUIRE(ra[k].ok);
+    REQUIRE(rb[k].ok);
+    for (const auto& [key, v] : ra[k].outputs.summary) {
+      if (key == "wall_s") continue;
+      REQUIRE(rb[k].outputs.summary.count(key) == 1);
+      CHECK(rb[k].outputs.summary.at(key) == v);
+      ++compared;
+    }
+    REQUIRE(ra[k].outputs.blows.size() == rb[k].outputs.blows.size());
+    for (size_t i = 0; i < ra[k].outputs.blows.size(); ++i)
+      for (const auto& [key, v] : ra[k].outputs.blows[i]) {
+        if (key == "wall_s") continue;
+        INFO("blow " << i + 1 << " " << key);
+        CHECK(rb[k].outputs.blows[i].at(key) == v);
+        ++compared;
+      }
+  }
+  std::printf("[forward] %d values compared, 1 worker x 2 threads against 2 workers x 1 thread: identical\n", compared);
+  // a different Su gives a different crater (the runs are not trivially equal)
+  CHECK(ra[0].outputs.summary.at("column_length_m") != ra[2].outputs.summary.at("column_length_m"));
+  // the cache: a second runner on the same cache runs nothing
+  tamp::ForwardRuns again(two);
+  const auto rc = again.run(batch);
+  CHECK(again.runs() == 0);
+  CHECK(again.cache_hits() == 4);
+  CHECK(rc[2].outputs.summary.at("uplift_m") == rb[2].outputs.summary.at("uplift_m"));
+  // a failed run (here a time-out) is a recorded failed point, and stays one from the cache
+  tamp::ForwardRunOptions slow = two;
+  slow.cache = d + "/cache-slow";
+  slow.timeout_s = 1e-3;
+  tamp::ForwardRuns s(slow);
+  const auto rs = s.run(std::vector<Config>{batch[0]});
+  CHECK_FALSE(rs[0].ok);
+  CHECK_THAT(rs[0].failure, Catch::Contains("time-out"));
+  CHECK(s.failures() == 1);
+  tamp::ForwardRuns s2(slow);
+  CHECK_FALSE(s2.run(batch[0]).ok);
+  CHECK(s2.runs() == 0);
+  tamp::log::set_level(tamp::log::Level::Info);
 }

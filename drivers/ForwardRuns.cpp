@@ -1,0 +1,252 @@
+#include "drivers/ForwardRuns.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "core/Deck.hpp"
+#include "core/Log.hpp"
+
+extern char** environ;
+
+namespace tamp {
+namespace fs = std::filesystem;
+
+std::string deck_key(const std::string& text) {
+  unsigned long long h = 1469598103934665603ull;  // FNV-1a 64
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", h);
+  return buf;
+}
+
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) throw std::runtime_error("cannot write " + path);
+}
+
+// The last line of a child's log that says what went wrong (or its last line).
+std::string last_error_line(const std::string& log_path) {
+  std::ifstream f(log_path);
+  std::string line, last, last_error;
+  while (std::getline(f, line)) {
+    if (line.empty()) continue;
+    last = line;
+    if (line.find("error") != std::string::npos || line.find("failed") != std::string::npos) last_error = line;
+  }
+  return !last_error.empty() ? last_error : (!last.empty() ? last : "no output");
+}
+
+// A running child: its process, its folders, when it started.
+struct Child {
+  pid_t pid = -1;
+  size_t index = 0;
+  std::string key, deck, dir, log;
+  std::chrono::steady_clock::time_point start;
+};
+
+}  // namespace
+
+ForwardRuns::ForwardRuns(ForwardRunOptions opt) : opt_(std::move(opt)) {
+  if (opt_.jobs < 1) throw std::invalid_argument("--jobs " + std::to_string(opt_.jobs) + ": allowed: 1 or more");
+  if (opt_.threads_per_job < 1) opt_.threads_per_job = 1;
+  if (opt_.jobs > 1 && opt_.tamp_binary.empty())
+    throw std::invalid_argument("forward runs: jobs > 1 needs the path of the tamp executable");
+  if (!opt_.scratch.empty()) fs::create_directories(opt_.scratch);
+  if (!opt_.cache.empty()) fs::create_directories(opt_.cache);
+}
+
+bool ForwardRuns::lookup(const std::string& key, const std::string& deck, ForwardResult& r) const {
+  if (opt_.cache.empty()) return false;
+  const std::string d = opt_.cache + "/" + key;
+  if (!fs::exists(d + "/deck.toml") || read_text(d + "/deck.toml") != deck) return false;
+  if (fs::exists(d + "/failed.txt")) {
+    r = ForwardResult{};
+    r.ok = false;
+    r.failure = read_text(d + "/failed.txt");
+    r.cached = true;
+    return true;
+  }
+  try {
+    r = ForwardResult{};
+    r.outputs = read_run_dir(d);
+    r.cached = true;
+    return true;
+  } catch (const std::exception&) {
+    return false;  // a damaged entry (a run killed while it was stored) is run again
+  }
+}
+
+void ForwardRuns::store(const std::string& key, const std::string& deck, const std::string& run_dir,
+                        const ForwardResult& r) {
+  if (opt_.cache.empty()) return;
+  const std::string d = opt_.cache + "/" + key, tmp = d + ".tmp";
+  fs::remove_all(tmp);
+  fs::create_directories(tmp);
+  if (r.ok) {
+    for (const char* f : {"summary.json", "blows.csv"})
+      if (fs::exists(run_dir + "/" + f)) fs::copy_file(run_dir + "/" + f, tmp + "/" + f);
+  } else {
+    write_text(tmp + "/failed.txt", r.failure);
+  }
+  write_text(tmp + "/deck.toml", deck);  // last: an entry with its deck is complete
+  fs::remove_all(d);
+  fs::rename(tmp, d);
+}
+
+ForwardResult ForwardRuns::run_here(const Config& cfg, const std::string& dir) {
+  ForwardResult r;
+  try {
+    (void)run_forward(cfg, dir);  // writes summary.json and blows.csv
+    r.outputs = read_run_dir(dir);  // the same reading as for a child's folder
+  } catch (const std::exception& e) {
+    r.ok = false;
+    r.failure = e.what();
+  }
+  return r;
+}
+
+std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
+  std::vector<ForwardResult> out(batch.size());
+  std::vector<std::string> decks(batch.size()), keys(batch.size());
+  std::vector<size_t> todo;
+  std::vector<long> same_as(batch.size(), -1);  // the same deck earlier in the batch: run once
+  for (size_t i = 0; i < batch.size(); ++i) {
+    // the key: the effective deck and the engine that runs it
+    decks[i] = "# forward run of tamp " TAMP_VERSION "\n" + to_toml(batch[i]);
+    keys[i] = deck_key(decks[i]);
+    for (size_t j = 0; j < i && same_as[i] < 0; ++j)
+      if (decks[j] == decks[i]) same_as[i] = same_as[j] >= 0 ? same_as[j] : static_cast<long>(j);
+    if (same_as[i] >= 0) continue;
+    if (lookup(keys[i], decks[i], out[i])) {
+      ++hits_;
+      continue;
+    }
+    todo.push_back(i);
+  }
+  auto finish = [&](size_t i, const ForwardResult& r, const std::string& dir) {
+    out[i] = r;
+    ++runs_;
+    if (!r.ok) {
+      ++failures_;
+      log::warn("forward run failed (recorded as a failed point): " + r.failure);
+    }
+    store(keys[i], decks[i], dir, r);
+    if (r.ok) {  // kept in the cache; a failed run's folder, deck and log stay for a look
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+      fs::remove(dir + ".toml", ec);
+      fs::remove(dir + ".log", ec);
+    }
+  };
+  if (opt_.jobs == 1) {
+    for (size_t i : todo) {
+      const std::string dir = opt_.scratch + "/run-" + std::to_string(serial_++);
+      finish(i, run_here(batch[i], dir), dir);
+    }
+  } else {
+    std::vector<Child> running;
+    size_t next = 0;
+    // the children's environment: ours with OMP_NUM_THREADS replaced
+    std::vector<std::string> env_text;
+    for (char** e = environ; *e; ++e)
+      if (std::strncmp(*e, "OMP_NUM_THREADS=", 16) != 0) env_text.push_back(*e);
+    env_text.push_back("OMP_NUM_THREADS=" + std::to_string(opt_.threads_per_job));
+    std::vector<char*> envp;
+    for (auto& s : env_text) envp.push_back(s.data());
+    envp.push_back(nullptr);
+    while (next < todo.size() || !running.empty()) {
+      while (next < todo.size() && static_cast<int>(running.size()) < opt_.jobs) {
+        Child c;
+        c.index = todo[next++];
+        const std::string base = opt_.scratch + "/run-" + std::to_string(serial_++);
+        c.deck = base + ".toml";
+        c.dir = base;
+        c.log = base + ".log";
+        write_text(c.deck, decks[c.index]);
+        std::vector<std::string> args{opt_.tamp_binary, "run", c.deck, "--out", c.dir, "--force", "--forward"};
+        std::vector<char*> argv;
+        for (auto& a : args) argv.push_back(a.data());
+        argv.push_back(nullptr);
+        posix_spawn_file_actions_t fa;
+        posix_spawn_file_actions_init(&fa);
+        posix_spawn_file_actions_addopen(&fa, 1, c.log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        posix_spawn_file_actions_adddup2(&fa, 1, 2);
+        const int rc = posix_spawn(&c.pid, opt_.tamp_binary.c_str(), &fa, nullptr, argv.data(), envp.data());
+        posix_spawn_file_actions_destroy(&fa);
+        if (rc != 0)
+          throw std::runtime_error("cannot start " + opt_.tamp_binary + ": " + std::strerror(rc));
+        c.start = std::chrono::steady_clock::now();
+        running.push_back(c);
+      }
+      bool reaped = false;
+      for (size_t k = 0; k < running.size(); ++k) {
+        Child& c = running[k];
+        int status = 0;
+        const pid_t w = waitpid(c.pid, &status, WNOHANG);
+        const double age = std::chrono::duration<double>(std::chrono::steady_clock::now() - c.start).count();
+        if (w == 0 && opt_.timeout_s > 0 && age > opt_.timeout_s) {
+          kill(c.pid, SIGKILL);
+          waitpid(c.pid, &status, 0);
+          ForwardResult r;
+          r.ok = false;
+          r.failure = "time-out after " + std::to_string(static_cast<long>(opt_.timeout_s)) + " s (" + c.deck + ")";
+          finish(c.index, r, c.dir);
+        } else if (w == c.pid) {
+          ForwardResult r;
+          if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+            try {
+              r.outputs = read_run_dir(c.dir);
+            } catch (const std::exception& e) {
+              r.ok = false;
+              r.failure = e.what();
+            }
+          } else {
+            r.ok = false;
+            r.failure = last_error_line(c.log) + " (" + c.log + ")";
+          }
+          finish(c.index, r, c.dir);
+        } else {
+          continue;
+        }
+        running.erase(running.begin() + static_cast<long>(k));
+        reaped = true;
+        break;
+      }
+      if (!reaped) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  for (size_t i = 0; i < batch.size(); ++i)
+    if (same_as[i] >= 0) {
+      out[i] = out[same_as[i]];
+      out[i].cached = true;
+      ++hits_;
+    }
+  return out;
+}
+
+}  // namespace tamp

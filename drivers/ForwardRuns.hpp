@@ -1,0 +1,65 @@
+// Independent forward runs of a calibration or diagnosis (drivers/Loop.hpp), run side by
+// side and remembered (docs/closing-the-loop.md "Forward runs in parallel").
+//
+// A batch of decks is run in order of submission. With jobs = 1 each run is done in this
+// process; with jobs = N > 1, N at a time, each a `tamp run DECK --forward` child process
+// (posix_spawn, OMP_NUM_THREADS = threads_per_job): the operating system is the scheduler,
+// no sockets or threads of our own. The outputs come back through the child's result
+// folder, read with read_run_dir. Results are the same whatever N: every forward run is
+// deterministic for any thread count (the reductions that feed the dynamics are summed in a
+// fixed order, kernels/DeterministicSum.hpp), the batch's results are returned in the order
+// of submission, and the deck a child reads (to_toml) round-trips the configuration exactly.
+//
+// The run cache: every finished run (or failure) is kept under `cache/<key>/` with the
+// deck it ran, the key a hash of that deck's text (the effective deck, after every --set
+// and effect). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
+// and started again with --resume skips what it had finished.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "drivers/Loop.hpp"
+
+namespace tamp {
+
+struct ForwardResult {
+  RunOutputs outputs;
+  bool ok = true;
+  std::string failure;  // why not ok: the run's last error line (NaN, time-out, ...)
+  bool cached = false;  // taken from the run cache
+};
+
+struct ForwardRunOptions {
+  int jobs = 1;               // runs side by side
+  int threads_per_job = 1;    // OMP_NUM_THREADS of a child (jobs > 1)
+  std::string scratch;        // folder for the runs' result folders
+  std::string cache;          // run cache folder ("" = none)
+  std::string tamp_binary;    // the `tamp` executable for the children (jobs > 1)
+  double timeout_s = 0;       // a child running longer is stopped and recorded as failed (0 = none)
+};
+
+class ForwardRuns {
+ public:
+  explicit ForwardRuns(ForwardRunOptions opt);
+  // The results of `batch`, in its order.
+  std::vector<ForwardResult> run(const std::vector<Config>& batch);
+  ForwardResult run(const Config& cfg) { return run(std::vector<Config>{cfg})[0]; }
+  long runs() const { return runs_; }          // forward runs done (not from the cache)
+  long cache_hits() const { return hits_; }
+  long failures() const { return failures_; }
+  const ForwardRunOptions& options() const { return opt_; }
+
+ private:
+  ForwardResult run_here(const Config& cfg, const std::string& dir);
+  void store(const std::string& key, const std::string& deck, const std::string& run_dir, const ForwardResult& r);
+  bool lookup(const std::string& key, const std::string& deck, ForwardResult& r) const;
+  ForwardRunOptions opt_;
+  long runs_ = 0, hits_ = 0, failures_ = 0, serial_ = 0;
+};
+
+// The cache key of a deck's text: FNV-1a 64-bit, as 16 hex digits (the stored deck is
+// compared in full, so a collision is never taken for a hit).
+std::string deck_key(const std::string& deck_text);
+
+}  // namespace tamp

@@ -2,6 +2,9 @@
 #include "models/MaterialModel.hpp"
 
 #include <Eigen/Dense>
+#ifdef TAMP_HAVE_NLOPT
+#include <nlopt.h>
+#endif
 #include <nlohmann/json.hpp>
 #include <algorithm>
 #include <charconv>
@@ -280,22 +283,49 @@ double FitResult::bic() const { return chi2 + static_cast<double>(names.size()) 
 namespace {
 FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std::vector<std::string>& params,
                        const CalibrateOptions& opt);
+FitResult calibrate_nlopt(const Config& cfg0, const ObservationSet& data, const std::vector<std::string>& params,
+                          const CalibrateOptions& opt);
+
+// The starting point of a fit in the fitted coordinates (log, or logit for a fraction).
+Eigen::VectorXd start_point(const Config& cfg0, const std::vector<std::string>& params) {
+  if (params.empty()) throw std::invalid_argument("calibrate: no parameters to fit");
+  Eigen::VectorXd t(params.size());
+  for (size_t j = 0; j < params.size(); ++j) {
+    const double v = get_param(cfg0, params[j]);
+    if (!(v > 0)) throw std::invalid_argument("calibrate: parameter " + params[j] + " starts at " + fmt_g(v) +
+                                              "; it must start > 0 (it is fitted in log space)");
+    t(static_cast<long>(j)) = to_t(params[j], v);
+  }
+  return t;
+}
+
+// The fit at its best point t: values, linearised 1-sigma uncertainties cov(t) = (J^T J)^-1
+// (normalised residuals), chi2, the outputs and residuals of the best run.
+void finish_fit(FitResult& fit, const ObservationSet& data, const Eigen::VectorXd& t, const Eigen::MatrixXd& J,
+                double chi2, const RunOutputs& best) {
+  const long p = t.size();
+  const Eigen::MatrixXd cov = (J.transpose() * J + 1e-12 * Eigen::MatrixXd::Identity(p, p)).inverse();
+  for (long j = 0; j < p; ++j) {
+    const double v = from_t(fit.names[j], t(j));
+    fit.values.push_back(v);
+    fit.sigmas.push_back(std::sqrt(std::max(0.0, cov(j, j))) * dvalue_dt(fit.names[j], v));
+  }
+  fit.chi2 = chi2;
+  fit.outputs = best;
+  fit.residuals = residuals(data, best);
+  fit.error = rms(fit.residuals);
+}
 }
 
 FitResult calibrate(const Config& cfg0, const ObservationSet& data, const std::vector<std::string>& params,
                     const CalibrateOptions& opt) {
   if (opt.method == "nelder-mead") return calibrate_nm(cfg0, data, params, opt);
-  if (opt.method != "lm") throw std::invalid_argument("calibrate: method '" + opt.method + "'; allowed: nelder-mead, lm");
+  if (opt.method == "sbplx" || opt.method == "bobyqa") return calibrate_nlopt(cfg0, data, params, opt);
+  if (opt.method != "lm")
+    throw std::invalid_argument("calibrate: method '" + opt.method + "'; allowed: nelder-mead, lm, sbplx, bobyqa");
   const int p = static_cast<int>(params.size());
   const int n = static_cast<int>(data.observations.size());
-  if (p == 0) throw std::invalid_argument("calibrate: no parameters to fit");
-  Eigen::VectorXd t(p);
-  for (int j = 0; j < p; ++j) {
-    const double v = get_param(cfg0, params[j]);
-    if (!(v > 0)) throw std::invalid_argument("calibrate: parameter " + params[j] + " starts at " + fmt_g(v) +
-                                              "; it must start > 0 (it is fitted in log space)");
-    t(j) = to_t(params[j], v);
-  }
+  Eigen::VectorXd t = start_point(cfg0, params);
   FitResult fit;
   fit.names = params;
   fit.n = n;
@@ -370,17 +400,7 @@ FitResult calibrate(const Config& cfg0, const ObservationSet& data, const std::v
                 (accepted ? "" : " (no better step)"));
     if (!accepted || (chi_old - chi2) < 1e-3 * chi_old) break;
   }
-  // linearised uncertainty: cov(t) = (J^T J)^-1 with normalised residuals
-  Eigen::MatrixXd cov = (J.transpose() * J + 1e-12 * Eigen::MatrixXd::Identity(p, p)).inverse();
-  for (int j = 0; j < p; ++j) {
-    const double v = from_t(params[j], t(j));
-    fit.values.push_back(v);
-    fit.sigmas.push_back(std::sqrt(std::max(0.0, cov(j, j))) * dvalue_dt(params[j], v));
-  }
-  fit.chi2 = chi2;
-  fit.outputs = best_out;
-  fit.residuals = residuals(data, best_out);
-  fit.error = rms(fit.residuals);
+  finish_fit(fit, data, t, J, chi2, best_out);
   return fit;
 }
 
@@ -427,13 +447,7 @@ FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std
     for (int j = 0; j < p; ++j) s += (j ? ", " : "") + params[j] + " = " + fmt_g(from_t(params[j], tt(j)));
     return s;
   };
-  Eigen::VectorXd t0(p);
-  for (int j = 0; j < p; ++j) {
-    const double v = get_param(cfg0, params[j]);
-    if (!(v > 0)) throw std::invalid_argument("calibrate: parameter " + params[j] + " starts at " + fmt_g(v) +
-                                              "; it must start > 0 (it is fitted in log space)");
-    t0(j) = to_t(params[j], v);
-  }
+  const Eigen::VectorXd t0 = start_point(cfg0, params);
   std::vector<Eigen::VectorXd> first{t0};  // the first simplex, run side by side
   for (int j = 0; j < p; ++j) {
     Eigen::VectorXd t = t0;
@@ -485,18 +499,108 @@ FitResult calibrate_nm(const Config& cfg0, const ObservationSet& data, const std
   const std::vector<Point> q = eval_batch(columns);
   for (int j = 0; j < p; ++j)  // a failed column carries no information
     J.col(j) = std::isfinite(q[j].chi2) ? Eigen::VectorXd((q[j].r - best.r) / h) : Eigen::VectorXd::Zero(n);
-  const Eigen::MatrixXd cov = (J.transpose() * J + 1e-12 * Eigen::MatrixXd::Identity(p, p)).inverse();
-  for (int j = 0; j < p; ++j) {
-    const double v = from_t(params[j], best.t(j));
-    fit.values.push_back(v);
-    fit.sigmas.push_back(std::sqrt(std::max(0.0, cov(j, j))) * dvalue_dt(params[j], v));
-  }
-  fit.chi2 = best.chi2;
-  fit.outputs = best.out;
-  fit.residuals = residuals(data, best.out);
-  fit.error = rms(fit.residuals);
+  finish_fit(fit, data, best.t, J, best.chi2, best.out);
   return fit;
 }
+
+#ifdef TAMP_HAVE_NLOPT
+// NLopt's bounded derivative-free local methods on chi2 in the fitted coordinates: Sbplx
+// (Rowan's subplex, Nelder-Mead on subspaces) or BOBYQA (Powell's quadratic models), within
+// +-3 of the start (a factor of 20 either way in log space), at most the run budget less the
+// p runs of the Jacobian at the best point, which gives the uncertainty as for Nelder-Mead.
+// A failed run is a point of chi2 1e30 (NLopt wants a finite value).
+FitResult calibrate_nlopt(const Config& cfg0, const ObservationSet& data, const std::vector<std::string>& params,
+                          const CalibrateOptions& opt) {
+  const int p = static_cast<int>(params.size());
+  const int n = static_cast<int>(data.observations.size());
+  const Eigen::VectorXd t0 = start_point(cfg0, params);
+  const int budget = opt.max_runs > 0 ? opt.max_runs : 12 + 20 * p;
+  FitResult fit;
+  fit.names = params;
+  fit.n = n;
+  Runner runner(opt);
+  struct Context {
+    const Config* cfg0;
+    const ObservationSet* data;
+    const std::vector<std::string>* params;
+    ForwardRuns* runs;
+    FitResult* fit;
+    Eigen::VectorXd best_t, best_r;
+    double best_chi2 = std::numeric_limits<double>::infinity();
+    RunOutputs best_out;
+    std::string failure;  // an exception from a forward run, rethrown after NLopt returns
+  } ctx{&cfg0, &data, &params, runner.runs, &fit, t0, Eigen::VectorXd::Zero(n)};
+  auto objective = [](unsigned dim, const double* x, double* /*grad*/, void* data_ptr) -> double {
+    Context& c = *static_cast<Context*>(data_ptr);
+    try {
+      Config cfg = *c.cfg0;
+      Eigen::VectorXd t(dim);
+      for (unsigned j = 0; j < dim; ++j) {
+        t(j) = x[j];
+        set_param(cfg, (*c.params)[j], from_t((*c.params)[j], x[j]));
+      }
+      const ForwardResult r = c.runs->run(cfg);
+      ++c.fit->runs;
+      Eigen::VectorXd res;
+      const double chi2 = chi2_of(*c.data, r, &res);
+      if (chi2 < c.best_chi2) {
+        c.best_chi2 = chi2;
+        c.best_t = t;
+        c.best_r = res;
+        c.best_out = r.outputs;
+      }
+      return std::isfinite(chi2) ? chi2 : 1e30;
+    } catch (const std::exception& e) {
+      c.failure = e.what();
+      return 1e30;
+    }
+  };
+  nlopt_opt o = nlopt_create(opt.method == "bobyqa" ? NLOPT_LN_BOBYQA : NLOPT_LN_SBPLX, static_cast<unsigned>(p));
+  std::vector<double> x(t0.data(), t0.data() + p), lb(p), ub(p), dx(p);
+  for (int j = 0; j < p; ++j) {
+    lb[j] = t0(j) - 3.0;
+    ub[j] = t0(j) + 3.0;
+    dx[j] = j < static_cast<int>(opt.simplex_steps.size()) ? opt.simplex_steps[j] : 0.3;
+  }
+  nlopt_set_lower_bounds(o, lb.data());
+  nlopt_set_upper_bounds(o, ub.data());
+  nlopt_set_initial_step(o, dx.data());
+  nlopt_set_min_objective(o, objective, &ctx);
+  nlopt_set_maxeval(o, std::max(2 * p + 1, budget - p));
+  nlopt_set_ftol_abs(o, 1e-3);  // the flat-simplex test of the Nelder-Mead fit
+  double fmin = 0;
+  const nlopt_result rc = nlopt_optimize(o, x.data(), &fmin);
+  nlopt_destroy(o);
+  if (!ctx.failure.empty()) throw std::runtime_error("calibrate (" + opt.method + "): " + ctx.failure);
+  if (opt.verbose)
+    log::info("calibrate (" + opt.method + "): " + std::to_string(fit.runs) + " runs, chi2 " + fmt_g(ctx.best_chi2) +
+              " (NLopt code " + std::to_string(static_cast<int>(rc)) + ")");
+  // the Jacobian at the best point (its columns side by side)
+  std::vector<Config> batch;
+  const double h = 0.05;
+  for (int j = 0; j < p; ++j) {
+    Config c = cfg0;
+    for (int k = 0; k < p; ++k) set_param(c, params[k], from_t(params[k], ctx.best_t(k) + (k == j ? h : 0.0)));
+    batch.push_back(c);
+  }
+  const auto cols = runner.runs->run(batch);
+  fit.runs += p;
+  Eigen::MatrixXd J(n, p);
+  for (int j = 0; j < p; ++j) {
+    Eigen::VectorXd rj;
+    J.col(j) = std::isfinite(chi2_of(data, cols[j], &rj)) ? Eigen::VectorXd((rj - ctx.best_r) / h)
+                                                          : Eigen::VectorXd::Zero(n);
+  }
+  finish_fit(fit, data, ctx.best_t, J, ctx.best_chi2, ctx.best_out);
+  return fit;
+}
+#else
+FitResult calibrate_nlopt(const Config&, const ObservationSet&, const std::vector<std::string>&,
+                          const CalibrateOptions& opt) {
+  throw std::invalid_argument("calibrate: method '" + opt.method +
+                              "' needs NLopt, which this build lacks (apt-get install libnlopt-cxx-dev, then rebuild)");
+}
+#endif
 }  // namespace
 
 // ------------------------------------------------------------------ effects

@@ -56,7 +56,8 @@ struct FitResult {
 class ForwardRuns;  // drivers/ForwardRuns.hpp
 
 struct CalibrateOptions {
-  std::string method = "nelder-mead";  // or "lm" (Levenberg-Marquardt with Eigen)
+  std::string method = "nelder-mead";  // or "lm" (Levenberg-Marquardt with Eigen), or NLopt's
+                                       // "sbplx" / "bobyqa" (when built with NLopt)
   int max_iterations = 8;  // LM iterations
   int max_runs = 0;        // Nelder-Mead budget of forward runs; 0 = 12 + 20 per parameter
   std::vector<double> simplex_steps;  // Nelder-Mead first steps in the fitted coordinate (default 0.3)

@@ -448,12 +448,13 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
 }
 
 int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                 int iterations, double bic_margin, int jobs, bool resume) {
+                 int iterations, double bic_margin, int jobs, bool resume, const std::string& method) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::DiagnoseOptions opt;
   opt.fit.runner = &runner;
+  opt.fit.method = method;
   opt.baseline_params = split_list(params);
   opt.fit.max_iterations = iterations;
   opt.bic_margin = bic_margin;
@@ -528,7 +529,8 @@ int main(int argc, char** argv) {
   calibrate->add_option("--params", params, "Comma-separated parameters, e.g. clay.Su,clay.G (default <target>.Su)");
   calibrate->add_option("--out", out, "Result folder")->required();
   calibrate->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations (default 8)");
-  calibrate->add_option("--method", method, "nelder-mead (default) or lm");
+  calibrate->add_option("--method", method,
+                        "nelder-mead (default), lm, or NLopt's sbplx / bobyqa (bounded, derivative-free)");
   calibrate->add_flag("--force", force, "Overwrite an existing result folder");
   int jobs = 1;
   bool resume = false;
@@ -543,6 +545,7 @@ int main(int argc, char** argv) {
                        "How much an effect must lower BIC to be selected (default 6, 'strong' evidence)")
       ->check(CLI::NonNegativeNumber);
   diagnose->add_flag("--force", force, "Overwrite an existing result folder");
+  diagnose->add_option("--method", method, "Fit method of every fit (as for calibrate; default nelder-mead)");
   diagnose->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
   diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
@@ -568,7 +571,7 @@ int main(int argc, char** argv) {
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method, jobs, resume);
-    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume);
+    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume, method);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

@@ -654,6 +654,41 @@ nlohmann::ordered_json fit_json(const std::string& name, const FitResult& f) {
 }  // namespace
 
 namespace {
+// The traces of a forward run that point to a cause (issue: the loop on the lab): the volume
+// balance, and per blow the crater depth, the deepest point, the landings and the first
+// rebound's restitution, and where the blow's energy went (% of the energy brought).
+std::string trace_report(const RunOutputs& run) {
+  std::ostringstream md;
+  auto get = [](const std::map<std::string, double>& m, const std::string& k) {
+    const auto it = m.find(k);
+    return it == m.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
+  };
+  const double hv = get(run.summary, "heave_volume_m3"), av = get(run.summary, "aggregate_volume_below_ground_m3");
+  md << "Volume balance: heave " << fmt_g(hv * 1e6, "%.0f") << " cm3 against " << fmt_g(av * 1e6, "%.0f")
+     << " cm3 of aggregate below the ground (ratio " << (av > 0 ? fmt_g(hv / av, "%.2f") : std::string("n/a"))
+     << "; about 1 for an undrained soil, less for one that compacts).\n\n";
+  if (run.blows.empty()) return md.str();
+  std::vector<std::string> plastic;  // plastic_<material>_J columns
+  for (const auto& [k, v] : run.blows[0])
+    if (k.rfind("plastic_", 0) == 0) plastic.push_back(k);
+  md << "| blow | crater depth (mm) | deepest (mm) | landings | restitution | energy in (J) |";
+  for (const auto& k : plastic) md << " " << k.substr(8, k.size() - 10) << " plastic |";
+  md << " radiated | returned | residual |\n|---|---|---|---|---|---|";
+  for (size_t k = 0; k < plastic.size(); ++k) md << "---|";
+  md << "---|---|---|\n";
+  for (size_t b = 0; b < run.blows.size(); ++b) {
+    const auto& r = run.blows[b];
+    const double e = get(r, "energy_in_J");
+    auto share = [&](const std::string& k) { return e > 0 ? fmt_g(100 * get(r, k) / e, "%.0f") + " %" : std::string("-"); };
+    md << "| " << b + 1 << " | " << fmt_g(1e3 * get(r, "crater_depth_m"), "%.1f") << " | "
+       << fmt_g(1e3 * get(r, "deepest_m"), "%.1f") << " | " << fmt_g(get(r, "contacts"), "%.0f") << " | "
+       << fmt_g(get(r, "restitution"), "%.2f") << " | " << fmt_g(e, "%.1f") << " |";
+    for (const auto& k : plastic) md << " " << share(k) << " |";
+    md << " " << share("radiated_J") << " | " << share("returned_J") << " | " << share("residual_J") << " |\n";
+  }
+  return md.str() + "\n";
+}
+
 // Coordinate scan of each parameter over `factors` of its current value (one at a time),
 // then Nelder-Mead from the best point with first steps `step`: a particle model's response
 // has small jumps in which a local search alone gets stuck.
@@ -818,7 +853,8 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
      << fmt_g(chosen->error, "%.3f") << ".\n\nThe heave / column volume ratio is the volume balance: an undrained "
      << "(incompressible) soil heaves by the volume of the aggregate pushed into it (ratio near 1); a soil that "
      << "compacts heaves less.\n\n## Residuals after the selected fit\n\n"
-     << residual_table(chosen->residuals);
+     << residual_table(chosen->residuals) << "\n## Traces of the baseline fit\n\n" << trace_report(baseline.outputs)
+     << "## Traces of the selected fit\n\n" << trace_report(chosen->outputs);
   log::info("diagnose: selected '" + selected + "', error before " + fmt_g(baseline.error, "%.3f") + ", after " +
             fmt_g(chosen->error, "%.3f") + "; " + std::to_string(runner.runs()) + " forward runs (" +
             std::to_string(runner.cache_hits()) + " more from the cache, " + std::to_string(runner.failures()) +

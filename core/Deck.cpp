@@ -148,21 +148,6 @@ using namespace ranges;
 
 // ---------------------------------------------------------------- error reporting
 
-// A file name as a one-line message can show it: control characters (a newline in a name)
-// escaped as \xNN.
-std::string printable(const std::string& name) {
-  std::string out;
-  for (const unsigned char c : name) {
-    if (c >= 0x20 && c != 0x7f) {
-      out += static_cast<char>(c);
-    } else {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", c);
-      out += buf;
-    }
-  }
-  return out;
-}
 
 class Reporter {
  public:

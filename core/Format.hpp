@@ -2,6 +2,7 @@
 #pragma once
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 namespace tamp {
@@ -13,6 +14,22 @@ inline std::string fmt_num(double x) {
   char buf[64];
   const auto res = std::to_chars(buf, buf + sizeof buf, x);
   return std::string(buf, res.ptr);
+}
+
+// Text as a one-line message can show it (a file name, a value read from a file): control
+// characters (a newline in a name) escaped as \xNN.
+inline std::string printable(const std::string& text) {
+  std::string out;
+  for (const unsigned char c : text) {
+    if (c >= 0x20 && c != 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  return out;
 }
 
 }  // namespace tamp

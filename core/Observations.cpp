@@ -43,17 +43,18 @@ bool contains(const std::vector<std::string>& v, const std::string& x) {
 }  // namespace
 
 ObservationSet load_observations(const std::string& path) {
+  const std::string shown = printable(path);  // the file name as a one-line message shows it
   namespace fs = std::filesystem;
-  if (!fs::exists(path)) throw DeckError(path + ": the data file does not exist");
+  if (!fs::exists(path)) throw DeckError(shown + ": the data file does not exist");
   toml::table root;
   try {
     root = toml::parse_file(path);
   } catch (const toml::parse_error& e) {
-    throw DeckError(path + ": TOML syntax error at line " + std::to_string(e.source().begin.line) + ": " +
+    throw DeckError(shown + ": TOML syntax error at line " + std::to_string(e.source().begin.line) + ": " +
                     std::string(e.description()));
   }
   auto bad = [&](const std::string& key, const std::string& value, const std::string& problem, const std::string& allowed) {
-    throw DeckError(path + ": " + key + " = " + value + " " + problem + "; allowed: " + allowed);
+    throw DeckError(shown + ": " + key + " = " + value + " " + problem + "; allowed: " + allowed);
   };
   for (const auto& [k, v] : root)
     if (k.str() != "scenario" && k.str() != "observations" && k.str() != "target_material")
@@ -61,13 +62,13 @@ ObservationSet load_observations(const std::string& path) {
   ObservationSet set;
   set.file = path;
   const auto scen = root["scenario"].value<std::string>();
-  if (!scen) throw DeckError(path + ": scenario is missing; required: the path of the scenario deck (relative to this file)");
+  if (!scen) throw DeckError(shown + ": scenario is missing; required: the path of the scenario deck (relative to this file)");
   set.scenario_as_written = *scen;
   const fs::path sp(*scen);
   set.scenario = sp.is_absolute() ? sp.string() : (fs::path(path).parent_path() / sp).lexically_normal().string();
   if (auto t = root["target_material"].value<std::string>()) set.target_material = *t;
   const auto* arr = root["observations"].as_array();
-  if (!arr || arr->empty()) throw DeckError(path + ": observations is missing; required: at least one [[observations]] entry");
+  if (!arr || arr->empty()) throw DeckError(shown + ": observations is missing; required: at least one [[observations]] entry");
   for (size_t i = 0; i < arr->size(); ++i) {
     const std::string p = "observations[" + std::to_string(i) + "]";
     const auto* t = arr->get(i)->as_table();
@@ -79,7 +80,7 @@ ObservationSet load_observations(const std::string& path) {
     }
     Observation o;
     const auto q = (*t)["quantity"].value<std::string>();
-    if (!q) throw DeckError(path + ": " + p + ".quantity is missing; required: one of " + join(summary_quantities()) +
+    if (!q) throw DeckError(shown + ": " + p + ".quantity is missing; required: one of " + join(summary_quantities()) +
                             " or, with blow = N, " + join(per_blow_quantities()));
     o.quantity = *q;
     if (const auto* b = t->get("blow")) {
@@ -87,9 +88,9 @@ ObservationSet load_observations(const std::string& path) {
       if (!bi || *bi < 1) bad(p + ".blow", "...", "is out of range", "an integer >= 1");
       o.blow = static_cast<int>(*bi);
       if (!contains(per_blow_quantities(), o.quantity))
-        bad(p + ".quantity", "\"" + o.quantity + "\"", "is not a per-blow quantity", join(per_blow_quantities()));
+        bad(p + ".quantity", "\"" + printable(o.quantity) + "\"", "is not a per-blow quantity", join(per_blow_quantities()));
     } else if (!contains(summary_quantities(), o.quantity)) {
-      bad(p + ".quantity", "\"" + o.quantity + "\"", "is not a known quantity",
+      bad(p + ".quantity", "\"" + printable(o.quantity) + "\"", "is not a known quantity",
           join(summary_quantities()) + " (or with blow = N: " + join(per_blow_quantities()) + ")");
     }
     const auto* range = t->get("range");
@@ -107,8 +108,8 @@ ObservationSet load_observations(const std::string& path) {
       o.value = 0.5 * (o.lo + o.hi);
       o.sigma = 0.5 * (o.hi - o.lo);
     } else {
-      if (!value) throw DeckError(path + ": " + p + ".value is missing; required: value and sigma, or range = [low, high]");
-      if (!sigma) throw DeckError(path + ": " + p + ".sigma is missing; required: sigma > 0 with value");
+      if (!value) throw DeckError(shown + ": " + p + ".value is missing; required: value and sigma, or range = [low, high]");
+      if (!sigma) throw DeckError(shown + ": " + p + ".sigma is missing; required: sigma > 0 with value");
       if (!(*sigma > 0) || !std::isfinite(*sigma)) bad(p + ".sigma", fmt_num(*sigma), "is out of range", "sigma > 0");
       o.value = *value;
       o.sigma = *sigma;

@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/Observations.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace {
@@ -104,4 +106,75 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
   for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
   CHECK(failures.empty());
   CHECK(refused > cases / 4);  // the mutations do reach the validators
+}
+
+TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and never crash", "[deck][fuzz]") {
+  // The same mutations of the lab's data file (data/lab-observations.toml, with its scenario
+  // made absolute so that the copies can live in a temporary folder) and of a per-blow data
+  // file, each read by load_observations: accepted, or refused with one DeckError line
+  // naming the file and the key ("; allowed: " / "; required: " / TOML syntax error).
+  // 1000 cases (about 1 s); TAMP_FUZZ_CASES / TAMP_FUZZ_SEED as for the decks.
+  const int cases = std::getenv("TAMP_FUZZ_CASES") ? std::atoi(std::getenv("TAMP_FUZZ_CASES")) / 3 : 1000;
+  const unsigned seed = std::getenv("TAMP_FUZZ_SEED") ? std::atoi(std::getenv("TAMP_FUZZ_SEED")) : 20261201u;
+  const std::string src = std::string(TAMP_SOURCE_DIR);
+  std::vector<std::string> lab = lines_of(src + "/data/lab-observations.toml");
+  for (auto& l : lab)
+    if (l.rfind("scenario = ", 0) == 0) l = "scenario = \"" + src + "/examples/lab-test.toml\"";
+  const std::vector<std::string> per_blow = {
+      "scenario = \"" + src + "/examples/ci-drop.toml\"", "target_material = \"clay\"", "[[observations]]",
+      "quantity = \"crater_depth_m\"", "blow = 2", "value = 0.12", "sigma = 0.005", "[[observations]]",
+      "quantity = \"uplift_m\"", "range = [0.01, 0.02]", "source = \"synthetic\""};
+  const std::vector<std::vector<std::string>> texts = {lab, per_blow};
+  const std::string dir = (std::filesystem::temp_directory_path() / "tamp_fuzz_data").string();
+  std::filesystem::create_directories(dir);
+  std::mt19937 rng(seed);
+  auto pick = [&](std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); };
+  int accepted = 0, refused = 0;
+  std::vector<std::string> failures;
+  for (int c = 0; c < cases && failures.size() < 5; ++c) {
+    std::vector<std::string> t = texts[pick(texts.size())];
+    std::string what;
+    const int mutations = 1 + static_cast<int>(pick(3));
+    for (int m = 0; m < mutations; ++m) {
+      std::vector<std::size_t> keyed;
+      for (std::size_t i = 0; i < t.size(); ++i)
+        if (t[i].find(" = ") != std::string::npos && t[i][0] != '#') keyed.push_back(i);
+      if (keyed.empty()) break;
+      const std::size_t i = keyed[pick(keyed.size())];
+      const std::string key = t[i].substr(0, t[i].find(" = "));
+      switch (pick(5)) {
+        case 0:
+        case 1: t[i] = key + " = " + kNasty[pick(kNasty.size())]; break;
+        case 2: t.erase(t.begin() + static_cast<long>(i)); break;
+        case 3: t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1"); break;
+        default: t.resize(i); break;  // a truncated file
+      }
+      what += " | " + (i < t.size() ? t[i] : std::string("(end)"));
+    }
+    const std::string path = dir + "/fuzz-" + std::to_string(c) + ".toml";
+    {
+      std::ofstream out(path);
+      for (const auto& l : t) out << l << "\n";
+    }
+    try {
+      (void)tamp::load_observations(path);
+      ++accepted;
+    } catch (const tamp::DeckError& e) {
+      const std::string msg = e.what();
+      const bool one_line = msg.find('\n') == std::string::npos && msg.size() < 600;
+      const bool form = msg.rfind(path + ": ", 0) == 0 &&
+                        (msg.find("; allowed: ") != std::string::npos || msg.find("; required: ") != std::string::npos ||
+                         msg.find("TOML syntax error") != std::string::npos);
+      if (!one_line || !form) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
+      ++refused;
+    } catch (const std::exception& e) {
+      failures.push_back("case " + std::to_string(c) + what + "\n  escaped: " + e.what());
+    }
+    std::filesystem::remove(path);
+  }
+  std::printf("[fuzz] %d data-file cases (seed %u): %d accepted, %d refused in one line; %zu failures\n", cases, seed,
+              accepted, refused, failures.size());
+  for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
+  CHECK(failures.empty());
+  CHECK(refused > cases / 4);
 }

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -113,6 +114,7 @@ Outcome undeclared(const std::string& name, const std::string& effect, const std
   synthesise(cfg, fs::relative(tiny, d).string(), "clay", 0.01, seed, data, d + "/synth", "test " + name);
   DiagnoseOptions opt;
   opt.fit.verbose = false;
+  if (const char* m = std::getenv("XMETHOD")) opt.fit.method = m;
   const std::string selected = diagnose(load_observations(data), d + "/diagnosis", opt);
   const std::string js = d + "/diagnosis/diagnosis.json";
   Outcome o{selected, std::stod(json_string(js, "error_before")), std::stod(json_string(js, "error_after"))};

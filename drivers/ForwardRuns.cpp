@@ -6,17 +6,23 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
+#include "drivers/Ranks.hpp"
+
+#include <nlohmann/json.hpp>
 
 extern char** environ;
 
@@ -35,6 +41,34 @@ std::string deck_key(const std::string& text) {
 }
 
 namespace {
+
+// A forward result as JSON for the ranks' exchange (doubles to full precision; NaN as null).
+nlohmann::json to_json(size_t index, const ForwardResult& r) {
+  nlohmann::json j;
+  j["index"] = index;
+  j["ok"] = r.ok;
+  j["failure"] = r.failure;
+  j["summary"] = r.outputs.summary;
+  j["blows"] = r.outputs.blows;
+  return j;
+}
+
+double number_or_nan(const nlohmann::json& v) {
+  return v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+}
+
+ForwardResult from_json(const nlohmann::json& j) {
+  ForwardResult r;
+  r.ok = j.at("ok").get<bool>();
+  r.failure = j.at("failure").get<std::string>();
+  for (const auto& [k, v] : j.at("summary").items()) r.outputs.summary[k] = number_or_nan(v);
+  for (const auto& row : j.at("blows")) {
+    std::map<std::string, double> m;
+    for (const auto& [k, v] : row.items()) m[k] = number_or_nan(v);
+    r.outputs.blows.push_back(m);
+  }
+  return r;
+}
 
 std::string read_text(const std::string& path) {
   std::ifstream f(path);
@@ -118,6 +152,12 @@ void ForwardRuns::store(const std::string& key, const std::string& deck, const s
   fs::rename(tmp, d);
 }
 
+std::string ForwardRuns::run_dir_name() {
+  // rank in the name: ranks on a shared file system never write the same folder
+  return opt_.scratch + "/run-" + (ranks().size > 1 ? "r" + std::to_string(ranks().rank) + "-" : std::string()) +
+         std::to_string(serial_++);
+}
+
 ForwardResult ForwardRuns::run_here(const Config& cfg, const std::string& dir) {
   ForwardResult r;
   try {
@@ -163,9 +203,15 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
       fs::remove(dir + ".log", ec);
     }
   };
+  // Under MPI the ranks share the batch (item k of the runs to do goes to rank k mod size)
+  // and exchange the results; each rank runs its share as below.
+  const Ranks& rk = ranks();
+  std::vector<size_t> mine;
+  for (size_t k = 0; k < todo.size(); ++k)
+    if (static_cast<int>(k % static_cast<size_t>(rk.size)) == rk.rank) mine.push_back(todo[k]);
   if (opt_.jobs == 1) {
-    for (size_t i : todo) {
-      const std::string dir = opt_.scratch + "/run-" + std::to_string(serial_++);
+    for (size_t i : mine) {
+      const std::string dir = run_dir_name();
       finish(i, run_here(batch[i], dir), dir);
     }
   } else {
@@ -179,11 +225,11 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
     std::vector<char*> envp;
     for (auto& s : env_text) envp.push_back(s.data());
     envp.push_back(nullptr);
-    while (next < todo.size() || !running.empty()) {
-      while (next < todo.size() && static_cast<int>(running.size()) < opt_.jobs) {
+    while (next < mine.size() || !running.empty()) {
+      while (next < mine.size() && static_cast<int>(running.size()) < opt_.jobs) {
         Child c;
-        c.index = todo[next++];
-        const std::string base = opt_.scratch + "/run-" + std::to_string(serial_++);
+        c.index = mine[next++];
+        const std::string base = run_dir_name();
         c.deck = base + ".toml";
         c.dir = base;
         c.log = base + ".log";
@@ -238,6 +284,19 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
         break;
       }
       if (!reaped) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  if (rk.size > 1) {
+    nlohmann::json part = nlohmann::json::array();
+    for (size_t i : mine) part.push_back(to_json(i, out[i]));
+    for (const std::string& text : allgather(part.dump())) {
+      for (const auto& j : nlohmann::json::parse(text)) {
+        const size_t i = j.at("index").get<size_t>();
+        if (std::find(mine.begin(), mine.end(), i) != mine.end()) continue;
+        out[i] = from_json(j);
+        ++runs_;  // counted on every rank, so that every rank reports the same figures
+        if (!out[i].ok) ++failures_;
+      }
     }
   }
   for (size_t i = 0; i < batch.size(); ++i)

@@ -10,6 +10,11 @@
 // fixed order, kernels/DeterministicSum.hpp), the batch's results are returned in the order
 // of submission, and the deck a child reads (to_toml) round-trips the configuration exactly.
 //
+// Under MPI (`mpirun -n K tamp diagnose ...`, drivers/Ranks.hpp) the K ranks share each
+// batch: the k-th run to do goes to rank k mod K, which runs it as above, and the results
+// are exchanged (MPI_Allgatherv of their JSON) so that every rank continues the same fit
+// with the same numbers; rank 0 writes the result files.
+//
 // The run cache: every finished run (or failure) is kept under `cache/<key>/` with the
 // deck it ran, the key a hash of that deck's text (the effective deck, after every --set
 // and effect). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
@@ -52,6 +57,7 @@ class ForwardRuns {
 
  private:
   ForwardResult run_here(const Config& cfg, const std::string& dir);
+  std::string run_dir_name();
   void store(const std::string& key, const std::string& deck, const std::string& run_dir, const ForwardResult& r);
   bool lookup(const std::string& key, const std::string& deck, ForwardResult& r) const;
   ForwardRunOptions opt_;

@@ -23,6 +23,7 @@
 #include "core/Log.hpp"
 #include "drivers/DropSequence.hpp"
 #include "drivers/ForwardRuns.hpp"
+#include "drivers/Ranks.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace tamp {
@@ -529,7 +530,8 @@ FitResult calibrate_nlopt(const Config& cfg0, const ObservationSet& data, const 
     double best_chi2 = std::numeric_limits<double>::infinity();
     RunOutputs best_out;
     std::string failure;  // an exception from a forward run, rethrown after NLopt returns
-  } ctx{&cfg0, &data, &params, runner.runs, &fit, t0, Eigen::VectorXd::Zero(n)};
+  } ctx{&cfg0, &data, &params, runner.runs, &fit, t0, Eigen::VectorXd::Zero(n), std::numeric_limits<double>::infinity(),
+         RunOutputs{}, std::string{}};
   auto objective = [](unsigned dim, const double* x, double* /*grad*/, void* data_ptr) -> double {
     Context& c = *static_cast<Context*>(data_ptr);
     try {
@@ -828,6 +830,8 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   js["baseline"] = fit_json("none", baseline);
   js["candidates"] = nlohmann::ordered_json::array();
   for (const auto& [name, fit] : fits) js["candidates"].push_back(fit_json(name, fit));
+  js["forward_runs"]["ranks"] = ranks().size;
+  if (ranks().rank > 0) return selected;  // under MPI rank 0 writes the results
   std::ofstream(out_dir + "/diagnosis.json") << js.dump(2) << "\n";
 
   std::ofstream md(out_dir + "/report.md");

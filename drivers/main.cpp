@@ -30,6 +30,7 @@
 #include "drivers/DropSequence.hpp"
 #include "drivers/ForwardRuns.hpp"
 #include "drivers/Loop.hpp"
+#include "drivers/Ranks.hpp"
 #include "drivers/Simulation.hpp"
 
 namespace fs = std::filesystem;
@@ -208,6 +209,14 @@ std::pair<std::string, double> parse_set(const std::string& s) {
   return {s.substr(0, eq), value};
 }
 
+// The result folder: one that cannot be created (a path under a file, no permission, a
+// read-only file system) is bad input (exit 2) naming the folder and the reason.
+void create_result_folder(const std::string& out) {
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) throw std::invalid_argument("result folder '" + tamp::printable(out) + "' cannot be created: " + ec.message());
+}
+
 // profile.csv of `tamp run --profile`: the wall time of each part of the step.
 void write_profile(const std::string& out, const Simulation& sim) {
   const tamp::StepProfile& p = sim.profile();
@@ -248,7 +257,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
     }
     fs::remove_all(out);
   }
-  fs::create_directories(out);
+  create_result_folder(out);
   { std::ofstream(out + "/deck.toml") << to_toml(cfg); }
 
   Simulation sim(cfg);
@@ -389,9 +398,21 @@ std::string this_executable() {
   return ec ? std::string() : p.string();
 }
 
+int prepare_loop_folder_here(const std::string& out, bool force, bool resume);
+
 // A result folder of calibrate / diagnose: refused if it exists, unless --force (replaced)
 // or --resume (kept: its run cache saves the forward runs already done). Returns 0 or 2.
 int prepare_loop_folder(const std::string& out, bool force, bool resume) {
+  // under MPI rank 0 prepares the folder and tells the others what it found
+  if (tamp::ranks().size > 1) {
+    std::string verdict;
+    if (tamp::ranks().rank == 0) verdict = std::to_string(prepare_loop_folder_here(out, force, resume));
+    return std::stoi(tamp::allgather(verdict)[0]);
+  }
+  return prepare_loop_folder_here(out, force, resume);
+}
+
+int prepare_loop_folder_here(const std::string& out, bool force, bool resume) {
   if (force && resume) {
     tamp::log::error("--force and --resume: give one (--force replaces '" + out + "', --resume continues it)");
     return 2;
@@ -401,7 +422,7 @@ int prepare_loop_folder(const std::string& out, bool force, bool resume) {
     return 2;
   }
   if (fs::exists(out) && force) fs::remove_all(out);
-  fs::create_directories(out);
+  create_result_folder(out);
   return 0;
 }
 
@@ -434,13 +455,14 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
   js["parameters"] = nlohmann::ordered_json::object();
   for (size_t j = 0; j < f.names.size(); ++j) {
     js["parameters"][f.names[j]] = {{"value", f.values[j]}, {"sigma", f.sigmas[j]}};
-    std::cout << f.names[j] << " = " << f.values[j] << " +- " << f.sigmas[j] << "\n";
+    if (tamp::ranks().rank == 0) std::cout << f.names[j] << " = " << f.values[j] << " +- " << f.sigmas[j] << "\n";
   }
   js["chi2"] = f.chi2;
   js["error"] = f.error;
   js["runs"] = f.runs;
   js["forward_runs"] = {{"run", runner.runs()}, {"from_cache", runner.cache_hits()}, {"failed", runner.failures()},
-                        {"jobs", jobs}};
+                        {"jobs", jobs}, {"ranks", tamp::ranks().size}};
+  if (tamp::ranks().rank > 0) return 0;  // rank 0 writes
   std::ofstream(out + "/calibration.json") << js.dump(2) << "\n";
   std::ofstream(out + "/residuals.json") << tamp::residuals_json(f.residuals);
   std::cout << tamp::residual_table(f.residuals) << "forward runs: " << f.runs << "; written: " << out << "/calibration.json\n";
@@ -459,7 +481,7 @@ int cmd_diagnose(const std::string& data_path, const std::string& params, const 
   opt.fit.max_iterations = iterations;
   opt.bic_margin = bic_margin;
   const std::string selected = tamp::diagnose(data, out, opt);
-  std::cout << "selected_effect: " << selected << "\n";
+  if (tamp::ranks().rank == 0) std::cout << "selected_effect: " << selected << "\n";
   return 0;
 }
 
@@ -564,6 +586,18 @@ int main(int argc, char** argv) {
     return rc == 0 ? 0 : 2;
   }
 
+  // calibrate / diagnose under mpirun: the ranks share the forward runs (drivers/Ranks.hpp);
+  // each rank takes its share of the node's cores, rank 0 reports and writes.
+  if (*calibrate || *diagnose) {
+    const tamp::Ranks& rk = tamp::ranks_init(&argc, &argv);
+    if (rk.size > 1 && !std::getenv("OMP_NUM_THREADS")) {  // a set OMP_NUM_THREADS is kept
+      const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+      const int per_node = local ? std::max(1, std::atoi(local)) : rk.size;
+      const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+      setenv("OMP_NUM_THREADS", std::to_string(std::max(1, cores / per_node)).c_str(), 1);
+    }
+    if (rk.rank > 0) tamp::log::set_level(tamp::log::Level::Quiet);
+  }
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
@@ -592,5 +626,6 @@ int main(int argc, char** argv) {
     std::_Exit(rc != 0 ? rc : 1);
   }
   Kokkos::finalize();
+  tamp::ranks_finalize();
   return rc;
 }

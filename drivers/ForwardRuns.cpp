@@ -175,6 +175,7 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
   std::vector<std::string> decks(batch.size()), keys(batch.size());
   std::vector<size_t> todo;
   std::vector<long> same_as(batch.size(), -1);  // the same deck earlier in the batch: run once
+  const long hits_before = hits_;
   for (size_t i = 0; i < batch.size(); ++i) {
     // the key: the effective deck and the engine that runs it
     decks[i] = "# forward run of tamp " TAMP_VERSION "\n" + to_toml(batch[i]);
@@ -187,6 +188,29 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
       continue;
     }
     todo.push_back(i);
+  }
+  const Ranks& rk = ranks();
+  if (rk.size > 1) {
+    // Rank 0's cache decides (the ranks' caches need not be one shared folder): it sends
+    // what it found cached, and every rank then runs its share of the same list.
+    nlohmann::json found = nlohmann::json::array();
+    if (rk.rank == 0)
+      for (size_t i = 0; i < batch.size(); ++i)
+        if (same_as[i] < 0 && std::find(todo.begin(), todo.end(), i) == todo.end()) found.push_back(to_json(i, out[i]));
+    const nlohmann::json from0 = nlohmann::json::parse(allgather(rk.rank == 0 ? found.dump() : std::string("[]"))[0]);
+    if (rk.rank > 0) {
+      todo.clear();
+      std::vector<bool> cached(batch.size(), false);
+      for (const auto& j : from0) {
+        const size_t i = j.at("index").get<size_t>();
+        out[i] = from_json(j);
+        out[i].cached = true;
+        cached[i] = true;
+      }
+      for (size_t i = 0; i < batch.size(); ++i)
+        if (same_as[i] < 0 && !cached[i]) todo.push_back(i);
+      hits_ = hits_before + static_cast<long>(from0.size());  // counted as rank 0 counts them
+    }
   }
   auto finish = [&](size_t i, const ForwardResult& r, const std::string& dir) {
     out[i] = r;
@@ -205,7 +229,6 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
   };
   // Under MPI the ranks share the batch (item k of the runs to do goes to rank k mod size)
   // and exchange the results; each rank runs its share as below.
-  const Ranks& rk = ranks();
   std::vector<size_t> mine;
   for (size_t k = 0; k < todo.size(); ++k)
     if (static_cast<int>(k % static_cast<size_t>(rk.size)) == rk.rank) mine.push_back(todo[k]);

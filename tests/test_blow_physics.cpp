@@ -263,7 +263,7 @@ HeapShape heap_shape(const Simulation& sim, double dp, double domain_radius) {
 
 }  // namespace
 
-TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and comes to rest; 3 deg steeper it slumps",
+TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and comes to rest, 3 deg steeper it slumps",
           "[aggregate]") {
   // A cohesionless slope is in limit equilibrium at beta = phi (infinite-slope analysis;
   // near the free surface of a cone the hoop stress is the intermediate one and does not

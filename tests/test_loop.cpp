@@ -193,7 +193,7 @@ TEST_CASE("Loop: a damaged run folder is an error naming the file, row and colum
   fs::remove_all(dir);
 }
 
-TEST_CASE("Loop: forward runs side by side give the answers of one at a time; the cache skips finished runs; a "
+TEST_CASE("Loop: forward runs side by side give the answers of one at a time, the cache skips finished runs, a "
           "failed run is a failed point", "[loop][forward-runs]") {
   // Three decks of the tiny scenario (clay Su 0.8, 1, 1.25 of its value). One at a time in
   // this process on 2 threads, against 2 child processes of 1 thread each: every summary and

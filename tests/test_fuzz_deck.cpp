@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include <cstdlib>
+#include <sys/wait.h>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -177,4 +178,72 @@ TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and nev
   for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
   CHECK(failures.empty());
   CHECK(refused > cases / 4);
+}
+
+TEST_CASE("Fuzz: the command line exits 0 or 2 with one error line on mutated decks and data files", "[deck][fuzz]") {
+  // The promise through the program itself (issue 13): `tamp check` on mutated decks and
+  // `tamp compare` on mutated data files (against a small finished run folder written
+  // here) exit with 0 or 2, never a signal or 1, and a refusal is exactly one
+  // "[tamp] error:" line. 40 + 40 cases (a process each, about 10 s).
+  namespace fs = std::filesystem;
+  const std::string src = std::string(TAMP_SOURCE_DIR), bin = TAMP_BINARY;
+  const fs::path dir = fs::temp_directory_path() / "tamp_fuzz_cli";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "run");
+  {  // a finished run folder: summary.json and a blows.csv of two blows
+    std::ofstream(dir / "run" / "summary.json")
+        << "{\"column_length_m\": 0.3, \"head_diameter_m\": 0.1, \"max_diameter_m\": 0.2, \"uplift_m\": 0.05, "
+           "\"aggregate_total_kg\": 8.0}\n";
+    std::ofstream(dir / "run" / "blows.csv") << "blow,crater_depth_m,uplift_m\n1,0.05,0.01\n2,0.12,0.02\n";
+  }
+  std::vector<std::string> deck = lines_of(src + "/examples/ci-drop.toml");
+  std::vector<std::string> data = lines_of(src + "/data/lab-observations.toml");
+  for (auto& l : data)
+    if (l.rfind("scenario = ", 0) == 0) l = "scenario = \"" + src + "/examples/lab-test.toml\"";
+  std::mt19937 rng(20261201u);
+  auto pick = [&](std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); };
+  auto mutate = [&](std::vector<std::string> t) {
+    std::vector<std::size_t> keyed;
+    for (std::size_t i = 0; i < t.size(); ++i)
+      if (t[i].find(" = ") != std::string::npos && t[i][0] != '#') keyed.push_back(i);
+    const std::size_t i = keyed[pick(keyed.size())];
+    const std::string key = t[i].substr(0, t[i].find(" = "));
+    switch (pick(3)) {
+      case 0: t[i] = key + " = " + kNasty[pick(kNasty.size())]; break;
+      case 1: t.erase(t.begin() + static_cast<long>(i)); break;
+      default: t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1");
+    }
+    return t;
+  };
+  int exit0 = 0, exit2 = 0;
+  std::vector<std::string> failures;
+  for (int c = 0; c < 80 && failures.size() < 5; ++c) {
+    const bool is_deck = c < 40;
+    const std::vector<std::string> t = mutate(is_deck ? deck : data);
+    const std::string file = (dir / ("case-" + std::to_string(c) + ".toml")).string();
+    {
+      std::ofstream out(file);
+      for (const auto& l : t) out << l << "\n";
+    }
+    const std::string log = (dir / "log.txt").string();
+    const std::string cmd = bin + (is_deck ? " check " + file : " compare " + file + " --run " + (dir / "run").string()) +
+                            " > " + log + " 2>&1";
+    const int status = std::system(cmd.c_str());
+    std::ifstream in(log);
+    int errors = 0;
+    for (std::string line; std::getline(in, line);) errors += line.rfind("[tamp] error:", 0) == 0 ? 1 : 0;
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (code == 0) ++exit0;
+    if (code == 2) ++exit2;
+    if (!(code == 0 || code == 2) || (code == 2 && errors != 1))
+      failures.push_back("case " + std::to_string(c) + " (" + file + "): exit " + std::to_string(code) + ", " +
+                         std::to_string(errors) + " error lines");
+    else
+      fs::remove(file);
+  }
+  std::printf("[fuzz] command line: 80 cases, %d exit 0, %d exit 2 with one error line; %zu failures\n", exit0, exit2,
+              failures.size());
+  for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
+  CHECK(failures.empty());
+  CHECK(exit2 > 10);
 }

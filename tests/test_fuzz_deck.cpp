@@ -37,6 +37,15 @@ const std::vector<std::string> kNasty = {
     "[0, 0]", "[1, 0]", "[0, 1e308]", "[-1, 1]", "[1, 2, 3]", "{}", "[\"a\", \"b\"]", "1e999", "0x10",
     "[[1]]"};
 
+// A refusal of the documented form: one line, "<file>: <key> ...; allowed: ..." /
+// "...; required: ..." / a TOML syntax error.
+bool documented_refusal(const std::string& msg, const std::string& file) {
+  const bool one_line = msg.find('\n') == std::string::npos && msg.size() < 600;
+  return one_line && msg.rfind(file + ": ", 0) == 0 &&
+         (msg.find("; allowed: ") != std::string::npos || msg.find("; required: ") != std::string::npos ||
+          msg.find("TOML syntax error") != std::string::npos);
+}
+
 }  // namespace
 
 TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never crash", "[deck][fuzz]") {
@@ -79,11 +88,7 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
       ++accepted;
     } catch (const tamp::DeckError& e) {
       const std::string msg = e.what();
-      const bool one_line = msg.find('\n') == std::string::npos && msg.size() < 600;
-      const bool form = msg.rfind(label + ": ", 0) == 0 &&
-                        (msg.find("; allowed: ") != std::string::npos || msg.find("; required: ") != std::string::npos ||
-                         msg.find("TOML syntax error") != std::string::npos);
-      if (!one_line || !form) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
+      if (!documented_refusal(msg, label)) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
       ++refused;
       continue;
     } catch (const std::exception& e) {
@@ -162,11 +167,7 @@ TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and nev
       ++accepted;
     } catch (const tamp::DeckError& e) {
       const std::string msg = e.what();
-      const bool one_line = msg.find('\n') == std::string::npos && msg.size() < 600;
-      const bool form = msg.rfind(path + ": ", 0) == 0 &&
-                        (msg.find("; allowed: ") != std::string::npos || msg.find("; required: ") != std::string::npos ||
-                         msg.find("TOML syntax error") != std::string::npos);
-      if (!one_line || !form) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
+      if (!documented_refusal(msg, path)) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
       ++refused;
     } catch (const std::exception& e) {
       failures.push_back("case " + std::to_string(c) + what + "\n  escaped: " + e.what());

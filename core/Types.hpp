@@ -27,6 +27,7 @@ using ViewN = Kokkos::View<T* [N], Space>;
 namespace math {
 KOKKOS_INLINE_FUNCTION double sqrt(double x) { return ::sqrt(x); }
 KOKKOS_INLINE_FUNCTION double abs(double x) { return ::fabs(x); }
+KOKKOS_INLINE_FUNCTION double floor(double x) { return ::floor(x); }
 KOKKOS_INLINE_FUNCTION double sin(double x) { return ::sin(x); }
 KOKKOS_INLINE_FUNCTION double cos(double x) { return ::cos(x); }
 KOKKOS_INLINE_FUNCTION double atan2(double y, double x) { return ::atan2(y, x); }

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -31,47 +30,6 @@ const char* kind_name(StageKind k) {
     case StageKind::Extract: return "extract";
     default: return "backfill";
   }
-}
-
-std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out,
-                                 int min_neighbours = 3);
-
-HostParticles host_particles(Simulation& sim) {
-  const ParticleSnapshot s = sim.snapshot();
-  return {s.r, s.z, s.mass, s.density, s.material};
-}
-
-// Free crater sites: for each candidate (r_c, z_c), 1 if no particle lies within
-// `clearance` of it and none lies above it in its column (|r - r_c| < dp/2, z > z_c): the
-// site is in a hole open to the sky, not a void inside the soil.
-struct FreeSite {
-  ViewN<double, 2> x;
-  View1<double> cr, cz;
-  View1<int> free_flag;
-  int n;
-  double clearance2, half_dp;
-  KOKKOS_INLINE_FUNCTION void operator()(const int c) const {
-    int ok = 1;
-    for (int j = 0; j < n && ok; ++j) {
-      const double dr = x(j, 0) - cr(c), dz = x(j, 1) - cz(c);
-      if (dr * dr + dz * dz < clearance2) ok = 0;
-      if (math::abs(dr) < half_dp && dz > 0) ok = 0;
-    }
-    free_flag(c) = ok;
-  }
-};
-
-// Highest z of the first n particles with r < reach (device reduction). A free function:
-// nvcc does not allow extended lambdas in private member functions.
-double highest_within(const ViewN<double, 2>& x, int n, double reach) {
-  double top = -1e300;
-  Kokkos::parallel_reduce(
-      "tamp::drop::highest_within", Kokkos::RangePolicy<ExecSpace>(0, n),
-      KOKKOS_LAMBDA(int i, double& m) {
-        if (x(i, 0) < reach) m = math::max(m, x(i, 1));
-      },
-      Kokkos::Max<double>(top));
-  return top;
 }
 
 }  // namespace
@@ -118,17 +76,13 @@ DropSequence::DropSequence(Simulation& sim, const Config& cfg, std::string out)
   sim_.set_rigid_body(barrel_profile(p.base_diameter, p.max_diameter, p.height, p.profile_segments), p.mass);
 
   // Tracers: the particle nearest to each requested point.
-  const HostParticles hp = host_particles(sim_);
+  const ParticleSurvey at_start = survey();
+  const auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), sim_.particles().x);
   for (const auto& t : cfg_.tracers) {
-    int best = -1;
-    double d2 = 1e300;
-    for (size_t i = 0; i < hp.r.size(); ++i) {
-      const double d = (hp.r[i] - t.r) * (hp.r[i] - t.r) + (hp.z[i] - t.z) * (hp.z[i] - t.z);
-      if (d < d2) { d2 = d; best = static_cast<int>(i); }
-    }
+    const int best = at_start.nearest(t.r, t.z);
     tracer_index_.push_back(best);
-    tracer_r0_.push_back(hp.r[best]);
-    tracer_z0_.push_back(hp.z[best]);
+    tracer_r0_.push_back(x(best, 0));
+    tracer_z0_.push_back(x(best, 1));
   }
   fs::create_directories(out_ + "/stages");
   fs::create_directories(out_ + "/checkpoints");
@@ -156,9 +110,10 @@ BlowRecord& DropSequence::blow_record(int blow) {
 // Top of the particles under the pounder (centre of the highest particle whose column
 // overlaps the pounder's widest radius), m.
 double DropSequence::surface_under_pounder() const {
-  return highest_within(sim_.particles().x, sim_.particle_count(),
-                        0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing);
+  return survey().highest_within(0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing);
 }
+
+ParticleSurvey DropSequence::survey() const { return ParticleSurvey(sim_.particles(), cfg_.sph.spacing); }
 
 // Crater floor after extraction, m below the original ground: the mean top of the
 // material (any, aggregate included) in the radial columns of width dp under the pounder's
@@ -168,9 +123,8 @@ double DropSequence::surface_under_pounder() const {
 // rule put the floor 34 mm below the pounder's base).
 double DropSequence::crater_floor() const {
   const double dp = cfg_.sph.spacing;
-  const HostParticles hp = host_particles(sim_);
   const double rb = 0.5 * cfg_.pounder.base_diameter;
-  const std::vector<double> top = soil_surface(hp, -1, dp, rb + dp, 1);
+  const std::vector<double> top = survey().soil_surface(-1, rb + dp, 1);
   double sum = 0;
   int n = 0;
   for (size_t k = 0; k < top.size(); ++k)
@@ -345,29 +299,23 @@ void DropSequence::backfill(const Stage& s) {
     return lo;
   }();
   const double z_hi = bf.mode == "fill" ? ground_ : ground_ + 0.5;
+  std::vector<CraterSite> sites;  // cell centres of a grid of spacing dp
   std::vector<double> cr, cz;
+  auto site = [&](int k, double z) {
+    sites.push_back({k, z});
+    cr.push_back((k + 0.5) * dp);
+    cz.push_back(z);
+  };
   for (int k = 0; (k + 0.5) * dp < radius; ++k)
-    for (int j = 0; ground_ - (j + 0.5) * dp > z_lo; ++j) cr.push_back((k + 0.5) * dp), cz.push_back(ground_ - (j + 0.5) * dp);
+    for (int j = 0; ground_ - (j + 0.5) * dp > z_lo; ++j) site(k, ground_ - (j + 0.5) * dp);
   if (bf.mode == "mass")
     for (int k = 0; (k + 0.5) * dp < radius; ++k)
-      for (int j = 0; ground_ + (j + 0.5) * dp < z_hi; ++j) cr.push_back((k + 0.5) * dp), cz.push_back(ground_ + (j + 0.5) * dp);
-  const int nc = static_cast<int>(cr.size());
-  View1<double> dcr("tamp::backfill_r", nc), dcz("tamp::backfill_z", nc);
-  View1<int> flag("tamp::backfill_free", nc);
-  {
-    auto hr = Kokkos::create_mirror_view(dcr);
-    auto hz = Kokkos::create_mirror_view(dcz);
-    for (int c = 0; c < nc; ++c) { hr(c) = cr[c]; hz(c) = cz[c]; }
-    Kokkos::deep_copy(dcr, hr);
-    Kokkos::deep_copy(dcz, hz);
-  }
-  const double clearance = 0.9 * dp;
-  Kokkos::parallel_for("tamp::backfill::free_sites", Kokkos::RangePolicy<ExecSpace>(0, nc),
-                       FreeSite{sim_.particles().x, dcr, dcz, flag, sim_.particle_count(), clearance * clearance, 0.5 * dp});
-  auto hflag = Kokkos::create_mirror_view_and_copy(HostSpace(), flag);
+      for (int j = 0; ground_ + (j + 0.5) * dp < z_hi; ++j) site(k, ground_ + (j + 0.5) * dp);
+  const int nc = static_cast<int>(sites.size());
+  const std::vector<int> is_free = survey().free_sites(sites, 0.9 * dp);
   std::vector<int> order;
   for (int c = 0; c < nc; ++c)
-    if (hflag(c)) order.push_back(c);
+    if (is_free[c]) order.push_back(c);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cz[a] < cz[b] || (cz[a] == cz[b] && cr[a] < cr[b]); });
   const double rho = cfg_.materials[backfill_material_].density;
   std::vector<NewParticle> add;
@@ -667,52 +615,18 @@ bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) 
   return true;
 }
 
-namespace {
-// Top of the soil (skip_material excluded) in radial columns of width dp: the highest particle
-// centre + dp/2 among the particles with at least min_neighbours neighbours within 1.5 dp, so
-// that particles splashed above the crater rim (single or, with 3, in short chains) do not
-// count as ground.
-std::vector<double> soil_surface(const HostParticles& hp, int skip_material, double dp, double r_out,
-                                 int min_neighbours) {
-  const int nb = static_cast<int>(std::ceil(r_out / dp)) + 2;
-  std::vector<double> top(nb, -1e300);
-  const double cell = 1.5 * dp;
-  std::map<std::pair<long, long>, std::vector<int>> grid;
-  for (size_t i = 0; i < hp.r.size(); ++i)
-    if (hp.material[i] != skip_material)
-      grid[{std::lround(std::floor(hp.r[i] / cell)), std::lround(std::floor(hp.z[i] / cell))}].push_back(static_cast<int>(i));
-  for (const auto& [key, members] : grid)
-    for (int i : members) {
-      int count = 0;
-      for (long a = key.first - 1; a <= key.first + 1; ++a)
-        for (long b = key.second - 1; b <= key.second + 1; ++b) {
-          const auto it = grid.find({a, b});
-          if (it == grid.end()) continue;
-          for (int j : it->second) {
-            const double dr = hp.r[j] - hp.r[i], dz = hp.z[j] - hp.z[i];
-            if (j != i && dr * dr + dz * dz < cell * cell) ++count;
-          }
-        }
-      if (count < min_neighbours) continue;
-      const int k = std::min(nb - 1, static_cast<int>(hp.r[i] / dp));
-      top[k] = std::max(top[k], hp.z[i] + 0.5 * dp);
-    }
-  return top;
-}
-}  // namespace
+double DropSequence::uplift() const { return uplift(survey()); }
 
-double DropSequence::uplift() const { return uplift(host_particles(sim_)); }
-
-double DropSequence::uplift(const HostParticles& hp) const {
+double DropSequence::uplift(const ParticleSurvey& survey) const {
   // Highest soil surface next to the column: radial columns from the column head's edge
   // (or the pounder's widest radius, before any backfill) out 0.1 m.
   const double dp = cfg_.sph.spacing;
   double r_out = 0;
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
   double r_in = 0.5 * cfg_.pounder.max_diameter;
-  const ColumnSummary c = column(hp);
+  const ColumnSummary c = column(survey);
   r_in = std::max(r_in, 0.5 * c.head_diameter_m);
-  const std::vector<double> top = soil_surface(hp, backfill_material_, dp, r_out);
+  const std::vector<double> top = survey.soil_surface(backfill_material_, r_out, 3);
   double best = -1e300;
   for (size_t k = 0; k < top.size(); ++k) {
     const double rc = (k + 0.5) * dp;
@@ -721,32 +635,23 @@ double DropSequence::uplift(const HostParticles& hp) const {
   return best - ground_;
 }
 
-ColumnSummary DropSequence::column() const { return column(host_particles(sim_)); }
+ColumnSummary DropSequence::column() const { return column(survey()); }
 
-ColumnSummary DropSequence::column(const HostParticles& hp) const {
+ColumnSummary DropSequence::column(const ParticleSurvey& survey) const {
   ColumnSummary c;
   if (backfill_material_ < 0) return c;
   const double dp = cfg_.sph.spacing;
-  double z_top = -1e300, z_bot = 1e300;
-  for (size_t i = 0; i < hp.r.size(); ++i)
-    if (hp.material[i] == backfill_material_) {
-      z_top = std::max(z_top, hp.z[i]);
-      z_bot = std::min(z_bot, hp.z[i]);
-      c.aggregate_kg += hp.mass[i];
-    }
-  if (z_bot > z_top) return c;
+  const MaterialBands bands = survey.bands(backfill_material_);
+  if (!bands.any) return c;
+  const double z_top = bands.z_top, z_bot = bands.z_bot;
+  c.aggregate_kg = bands.mass_kg;
   // Bands of one spacing from the top of the aggregate down. Diameter of a band: that of the
   // solid cylinder holding the band's aggregate volume, d = 2 sqrt(V_b / (pi dp)), V_b the sum
   // of the ring volumes m / rho. Robust at particle resolution, where the outermost grain
   // is not: one grain thrown out over the heaved surface at r = 0.27 m made a 552 mm
   // "largest diameter" under the former rule (2 (largest r + dp/2)).
-  const int nb = static_cast<int>(std::floor((z_top - z_bot) / dp)) + 1;
-  std::vector<double> volume(nb, 0.0);
-  for (size_t i = 0; i < hp.r.size(); ++i)
-    if (hp.material[i] == backfill_material_) {
-      const int b = std::min(nb - 1, static_cast<int>(std::floor((z_top + 0.5 * dp - hp.z[i]) / dp)));
-      volume[b] += hp.mass[i] / hp.density[i];
-    }
+  const std::vector<double>& volume = bands.volume_m3;
+  const int nb = static_cast<int>(volume.size());
   for (int b = 0; b < nb; ++b)
     if (volume[b] > 0) c.rows.push_back({ground_ - (z_top - b * dp), 2.0 * std::sqrt(volume[b] / (pi * dp))});
   c.length_m = (std::min(z_top + 0.5 * dp, ground_)) - (z_bot - 0.5 * dp);
@@ -825,15 +730,15 @@ void DropSequence::write_tables(double wall_s) const {
 }
 
 std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s) const {
-  const HostParticles hp = host_particles(sim_);  // one host copy for every measurement
-  const ColumnSummary c = column(hp);
+  const ParticleSurvey now = survey();  // one binning for every measurement
+  const ColumnSummary c = column(now);
   int completed = 0;
   for (const auto& b : blows_) completed += b.crater_depth_m != 0.0 ? 1 : 0;
   return {{"column_length_m", c.length_m},
           {"head_diameter_m", c.head_diameter_m},
           {"max_diameter_m", c.max_diameter_m},
           {"base_diameter_m", c.base_diameter_m},
-          {"uplift_m", uplift(hp)},
+          {"uplift_m", uplift(now)},
           {"aggregate_total_kg", c.aggregate_kg},
           {"blows_completed", double(completed)},
           {"steps", double(sim_.steps())},
@@ -841,19 +746,19 @@ std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s)
           {"particles", double(sim_.particle_count())},
           {"simulated_time_s", sim_.time()},
           {"spacing_m", cfg_.sph.spacing},
-          {"heave_volume_m3", heave_volume(hp)},
-          {"aggregate_volume_below_ground_m3", aggregate_volume_below_ground(hp)}};
+          {"heave_volume_m3", heave_volume(now)},
+          {"aggregate_volume_below_ground_m3", now.volume_below(backfill_material_, ground_)}};
 }
 
-double DropSequence::heave_volume() const { return heave_volume(host_particles(sim_)); }
+double DropSequence::heave_volume() const { return heave_volume(survey()); }
 
-double DropSequence::heave_volume(const HostParticles& hp) const {
+double DropSequence::heave_volume(const ParticleSurvey& survey) const {
   // Soil surface (soil_surface) above the ground level, integrated over rings outside the
   // pounder's widest radius.
   const double dp = cfg_.sph.spacing;
   double r_out = 0;
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
-  const std::vector<double> top = soil_surface(hp, backfill_material_, dp, r_out);
+  const std::vector<double> top = survey.soil_surface(backfill_material_, r_out, 3);
   const double r_in = 0.5 * cfg_.pounder.max_diameter;
   double v = 0;
   for (size_t k = 0; k < top.size(); ++k) {
@@ -865,16 +770,7 @@ double DropSequence::heave_volume(const HostParticles& hp) const {
 }
 
 double DropSequence::aggregate_volume_below_ground() const {
-  return aggregate_volume_below_ground(host_particles(sim_));
-}
-
-double DropSequence::aggregate_volume_below_ground(const HostParticles& hp) const {
-  // sum of m / rho of the aggregate particles below the ground level
-  if (backfill_material_ < 0) return 0.0;
-  double v = 0;
-  for (size_t i = 0; i < hp.r.size(); ++i)
-    if (hp.material[i] == backfill_material_ && hp.z[i] < ground_) v += hp.mass[i] / hp.density[i];
-  return v;
+  return survey().volume_below(backfill_material_, ground_);  // sum of m / rho below the ground
 }
 
 }  // namespace tamp

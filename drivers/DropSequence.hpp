@@ -18,6 +18,7 @@
 #include "core/Config.hpp"
 #include "core/Output.hpp"
 #include "drivers/Simulation.hpp"
+#include "kernels/Measurements.hpp"
 
 namespace tamp {
 
@@ -73,12 +74,6 @@ struct ColumnSummary {
   double length_m = 0, head_diameter_m = 0, max_diameter_m = 0, base_diameter_m = 0;
   double aggregate_kg = 0;
   std::vector<ColumnRow> rows;
-};
-
-// Host copies of what the stage-end measurements need (one copy per measurement set).
-struct HostParticles {
-  std::vector<double> r, z, mass, density;
-  std::vector<int> material;
 };
 
 enum class StageKind { Relax, Impact, Extract, Backfill };
@@ -142,11 +137,11 @@ class DropSequence {
   void progress(int k, bool force);
   Checkpoint checkpoint();
   double surface_under_pounder() const;
-  // The measurements from one host copy of the particles.
-  ColumnSummary column(const HostParticles& hp) const;
-  double uplift(const HostParticles& hp) const;
-  double heave_volume(const HostParticles& hp) const;
-  double aggregate_volume_below_ground(const HostParticles& hp) const;
+  // The measurements from one binning of the particles (kernels/Measurements.hpp).
+  ParticleSurvey survey() const;
+  ColumnSummary column(const ParticleSurvey& s) const;
+  double uplift(const ParticleSurvey& s) const;
+  double heave_volume(const ParticleSurvey& s) const;
   BlowRecord& blow_record(int blow);
 
   Simulation& sim_;

@@ -9,18 +9,42 @@
 
 namespace tamp {
 
-// The binned particles: visits every particle within the cut-off of particle i.
+// The binned particles: visits every particle within the cut-off of particle i, or within
+// a radius up to the cut-off of any point (the stage-end measurements, the tie's search).
 struct CellGrid {
   ViewN<double, 2> x;
   View1<int> cell_of, cell_start, sorted;
-  int nr, nz;
-  double rc2;
+  int nr = 0, nz = 0;
+  double rc2 = 0;
+  double r_min = 0, z_min = 0, cell = 1;  // the grid: cells of side `cell` from (r_min, z_min)
 
   template <class F>
   KOKKOS_INLINE_FUNCTION void for_each_neighbour(int i, F&& on_pair) const {
     const int c = cell_of(i);
-    const int ir = c % nr, iz = c / nr;
     const double xi = x(i, 0), zi = x(i, 1);
+    visit(c % nr, c / nr, xi, zi, rc2, i, on_pair);
+  }
+
+  // Every particle j with |x_j - (r, z)|^2 < radius2 (radius at most the cut-off).
+  template <class F>
+  KOKKOS_INLINE_FUNCTION void for_each_near(double r, double z, double radius2, F&& on_particle) const {
+    if (nr == 0) return;
+    visit(cell_r(r), cell_z(z), r, z, radius2, -1, on_particle);
+  }
+
+  // The cell of a point, clamped into the grid (as the binning clamps).
+  KOKKOS_INLINE_FUNCTION int cell_r(double r) const {
+    const int ir = static_cast<int>((r - r_min) / cell);
+    return ir < 0 ? 0 : (ir >= nr ? nr - 1 : ir);
+  }
+  KOKKOS_INLINE_FUNCTION int cell_z(double z) const {
+    const int iz = static_cast<int>((z - z_min) / cell);
+    return iz < 0 ? 0 : (iz >= nz ? nz - 1 : iz);
+  }
+
+ private:
+  template <class F>
+  KOKKOS_INLINE_FUNCTION void visit(int ir, int iz, double xi, double zi, double radius2, int skip, F& on_pair) const {
     for (int jz = iz - 1; jz <= iz + 1; ++jz) {
       if (jz < 0 || jz >= nz) continue;
       for (int jr = ir - 1; jr <= ir + 1; ++jr) {
@@ -28,9 +52,9 @@ struct CellGrid {
         const int cc = jz * nr + jr;
         for (int k = cell_start(cc); k < cell_start(cc + 1); ++k) {
           const int j = sorted(k);
-          if (j == i) continue;
+          if (j == skip) continue;
           const double dr = xi - x(j, 0), dz = zi - x(j, 1);
-          if (dr * dr + dz * dz < rc2) on_pair(j);
+          if (dr * dr + dz * dz < radius2) on_pair(j);
         }
       }
     }
@@ -49,6 +73,11 @@ class NeighbourList {
   // x: positions of n_total particles (r, z). Query particles are [0, n_query).
   void build(const ViewN<double, 2>& x, int n_total, int n_query, double cutoff_m);
 
+  // Only the cell list of the first n_total particles (no pair list): for searches around
+  // points (kernels/Measurements.hpp). The grid is valid until the particles move or the
+  // next bin / build.
+  CellGrid bin(const ViewN<double, 2>& x, int n_total, double cutoff_m);
+
   // Total number of stored pairs (i, j), each direction counted.
   int pair_count() const { return n_pairs_; }
 
@@ -57,11 +86,9 @@ class NeighbourList {
   int n_pairs_ = 0;
 };
 
-inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_query_in,
-                                 double cutoff_m) {
-  n_query = n_query_in;
-  cutoff = cutoff_m;
+inline CellGrid NeighbourList::bin(const ViewN<double, 2>& x, int n_total, double cutoff_m) {
   using policy = Kokkos::RangePolicy<ExecSpace>;
+  if (n_total <= 0) return CellGrid{};
 
   // 1. bounding box
   using MinMax = Kokkos::MinMax<double>;
@@ -95,8 +122,6 @@ inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_q
     cell_start_ = View1<int>("tamp::nl::cell_start", ncell + 1);
     cell_cursor_ = View1<int>("tamp::nl::cell_cursor", ncell + 1);
   }
-  if (static_cast<int>(count_.extent(0)) < n_query + 1) count_ = View1<int>("tamp::nl::count", n_query + 1);
-  if (static_cast<int>(offsets.extent(0)) < n_query + 1) offsets = View1<int>("tamp::nl::offsets", n_query + 1);
 
   auto cell_of = cell_of_;
   auto cell_count = cell_count_;
@@ -146,13 +171,26 @@ inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_q
           sorted(m + 1) = key;
         }
       });
+  CellGrid grid;
+  grid.x = x; grid.cell_of = cell_of; grid.cell_start = cell_start; grid.sorted = sorted;
+  grid.nr = nr; grid.nz = nz; grid.rc2 = cutoff_m * cutoff_m;
+  grid.r_min = rmin; grid.z_min = zmin; grid.cell = cell;
+  return grid;
+}
+
+inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_query_in,
+                                 double cutoff_m) {
+  n_query = n_query_in;
+  cutoff = cutoff_m;
+  using policy = Kokkos::RangePolicy<ExecSpace>;
+  const CellGrid grid = bin(x, n_total, cutoff_m);
+  if (static_cast<int>(count_.extent(0)) < n_query + 1) count_ = View1<int>("tamp::nl::count", n_query + 1);
+  if (static_cast<int>(offsets.extent(0)) < n_query + 1) offsets = View1<int>("tamp::nl::offsets", n_query + 1);
 
   // 6. count, scan, fill: one functor body used twice
-  const double rc2 = cutoff_m * cutoff_m;
   auto count = count_;
   auto offs = offsets;
   const int nq = n_query_in;  // not the member: a device lambda must not capture `this`
-  const CellGrid grid{x, cell_of, cell_start, sorted, nr, nz, rc2};
   Kokkos::parallel_for(
       "tamp::nl::count", policy(0, n_query), KOKKOS_LAMBDA(int i) {
         int n = 0;

@@ -199,25 +199,6 @@ void Simulation::build_materials() {
   Kokkos::deep_copy(materials_, h);
 }
 
-// Device kernels of the private members below live in free functions: nvcc does not
-// allow extended lambdas in private member functions, nor local types in their captures.
-namespace {
-
-// max_i |x_i - x_ref_i|^2 over the first n particles.
-double max_displacement_sq(const ViewN<double, 2>& x, const ViewN<double, 2>& xr, int n) {
-  double dmax = 0;
-  Kokkos::parallel_reduce(
-      "tamp::max_displacement", Kokkos::RangePolicy<ExecSpace>(0, n),
-      KOKKOS_LAMBDA(int i, double& m) {
-        const double dr = x(i, 0) - xr(i, 0), dz = x(i, 1) - xr(i, 1);
-        m = math::max(m, dr * dr + dz * dz);
-      },
-      Kokkos::Max<double>(dmax));
-  return dmax;
-}
-
-}  // namespace
-
 // Particles on a regular grid of spacing dp in each block (centres at half spacings), ring
 // mass m = rho0 * 2 pi r * dp^2. One kernel launch per block.
 void Simulation::build_particles() {
@@ -321,24 +302,11 @@ void Simulation::apply_contact() {
   Particles& P = particles_;
   if (static_cast<int>(contact_force_.extent(0)) < P.capacity)
     contact_force_ = ViewN<double, 2>("tamp::contact_force", P.capacity);
-  RigidBodyState state{body_.profile, body_.r0, body_.z0, body_.v_r, body_.v_z};
   const double dt = dt_ > 0 ? dt_ : 1e-30;  // before the first step: no stick limit
-  PenaltyContact f(P, materials_, state, contact_law_, dt);
+  PenaltyContact f(P, materials_, body_.state(), contact_law_, dt);
   f.force = contact_force_;
   Kokkos::parallel_for("tamp::contact::penalty", real_particles(), f);
-  body_.contact = contact_sums(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z);
-  if (!body_.kinematic) {
-    body_.a_r = body_.free_r ? -body_.contact.force_r / body_.mass : 0.0;
-    body_.a_z = body_.free_z ? -body_.contact.force_z / body_.mass - sph_.gravity : 0.0;
-  } else {
-    body_.a_r = body_.a_z = 0.0;
-  }
-}
-
-void Simulation::integrate_body_half(double dt_half) {
-  if (!body_.active || body_.kinematic) return;
-  body_.v_r += dt_half * body_.a_r;
-  body_.v_z += dt_half * body_.a_z;
+  body_.take_contact(contact_sums(contact_force_, P.v, P.n_real, body_.v_r, body_.v_z), sph_.gravity);
 }
 
 void Simulation::set_rigid_body(const RigidProfile& profile, double mass, bool free_r, bool free_z) {
@@ -385,26 +353,10 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   Kokkos::deep_copy(hr_dev, hr);
   Kokkos::deep_copy(hz_dev, hz);
   Kokkos::deep_copy(hm_dev, hm);
-  const double dp = config_.sph.spacing, r_floor = planar_mass_floor(dp);
   P.fill_new(n0, n1);  // every field at a new particle's value (core/Particles.hpp), then:
-  auto x = P.x; auto xr = P.x_ref; auto mass = P.mass; auto mp = P.planar_mass; auto rho = P.rho;
-  auto mat = P.material;
-  auto mats = materials_;
   double added = 0;
   Kokkos::parallel_reduce("tamp::add_particles", Kokkos::RangePolicy<ExecSpace>(0, count),
-                          KOKKOS_LAMBDA(int k, double& m_sum) {
-                            const int i = n0 + k;
-                            const double r = hr_dev(k);
-                            const double rho0 = mats(hm_dev(k)).density;
-                            x(i, 0) = r; x(i, 1) = hz_dev(k);
-                            xr(i, 0) = r; xr(i, 1) = hz_dev(k);
-                            rho(i) = rho0;
-                            mass(i) = rho0 * 2.0 * pi * r * dp * dp;
-                            mp(i) = planar_mass_of(mass(i), r, r_floor);
-                            mat(i) = hm_dev(k);
-                            m_sum += mass(i);
-                          },
-                          added);
+                          PlaceNewParticles(P, n0, hr_dev, hz_dev, hm_dev, materials_, config_.sph.spacing), added);
   P.n_real = n1;
   P.n_total = n1 + P.n_tie;
   if (fem_) {
@@ -418,11 +370,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   return added;
 }
 
-double Simulation::body_energy() const {
-  if (!body_.active) return 0.0;
-  return 0.5 * body_.mass * (body_.v_r * body_.v_r + body_.v_z * body_.v_z) +
-         body_.mass * config_.gravity * body_.z0;
-}
+double Simulation::body_energy() const { return body_.energy(config_.gravity); }
 
 double Simulation::stable_dt() const {
   const Particles& P = particles_;
@@ -501,24 +449,19 @@ void Simulation::first_half_kick(double dt) {
   }
   Timed t(*this, &StepProfile::kick_drift);
   Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
-  integrate_body_half(0.5 * dt);
+  body_.half_kick(0.5 * dt);
 }
 
 void Simulation::drift(double dt) {
   {
     Timed t(*this, &StepProfile::kick_drift);
-    drift_body(dt);
+    body_.drift(dt);
     Kokkos::parallel_for("tamp::drift", real_particles(),
                          Drift(particles_, ghosts_.planes, non_reflecting_, dt, planar_mass_floor(config_.sph.spacing)));
   }
   drift_elements(dt);
 }
 
-void Simulation::drift_body(double dt) {
-  if (!body_.active) return;
-  body_.r0 += dt * body_.v_r;
-  body_.z0 += dt * body_.v_z;
-}
 
 // The tied elements: v^{n+1/2}, x^{n+1} with the forces of x^n (tie forces included); the
 // tie particles follow.
@@ -568,7 +511,7 @@ void Simulation::second_half_kick(double dt) {
     Timed t(*this, &StepProfile::kick_drift);
     damp_back_ = 0.5 * dt;  // the damping used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
     Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
-    integrate_body_half(0.5 * dt);
+    body_.half_kick(0.5 * dt);
   }
   Timed t(*this, &StepProfile::energy_account);
   account_half_kick(dt, -0.25 * dt);
@@ -684,60 +627,19 @@ void Simulation::set_geostatic_stress(double k0) {
 }
 
 void Simulation::hold_boundary_stress() {
-  Particles& P = particles_;
-  auto x = P.x; auto sigma = P.sigma; auto t0 = P.traction0; auto xh = P.x_hold; auto flags = P.flags;
-  const MirrorPlanes planes = non_reflecting_;
-  const double dp = config_.sph.spacing;
-  Kokkos::parallel_for("tamp::hold_boundary_stress", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       KOKKOS_LAMBDA(int i) {
-                         t0(i, 0) = 0.0;
-                         t0(i, 1) = 0.0;
-                         xh(i, 0) = x(i, 0);
-                         xh(i, 1) = x(i, 1);
-                         int f = flags(i);
-                         for (int k = 0; k < planes.count; ++k) {
-                           f &= ~(FLAG_HELD_BOUNDARY << k);
-                           const MirrorPlane& pl = planes.plane[k];
-                           const double d = (x(i, pl.axis) - pl.position) * pl.side;
-                           if (d < 0.0 || d >= dp) continue;
-                           f |= FLAG_HELD_BOUNDARY << k;
-                           // outward normal n = -side e_axis; traction on the soil t = sigma . n
-                           const double sn = pl.axis == 0 ? sigma(i, 0) : sigma(i, 1);
-                           t0(i, pl.axis) += -pl.side * sn;
-                           t0(i, 1 - pl.axis) += -pl.side * sigma(i, 3);
-                         }
-                         flags(i) = f;
-                       });
+  Kokkos::parallel_for("tamp::hold_boundary_stress", real_particles(),
+                       HoldBoundaryStress(particles_, non_reflecting_, config_.sph.spacing));
 }
 
 void Simulation::prescribe_velocity(const Box& box, double v_r, double v_z) {
-  Particles& P = particles_;
-  auto x = P.x; auto flags = P.flags; auto vp = P.v_prescribed; auto v = P.v;
-  Kokkos::parallel_for("tamp::prescribe_velocity", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       KOKKOS_LAMBDA(int i) {
-                         const double r = x(i, 0), z = x(i, 1);
-                         if (r >= box.r_min && r < box.r_max && z >= box.z_min && z < box.z_max) {
-                           flags(i) |= FLAG_DRIVEN;
-                           vp(i, 0) = v_r; vp(i, 1) = v_z;
-                           v(i, 0) = v_r; v(i, 1) = v_z;
-                         }
-                       });
+  Kokkos::parallel_for("tamp::prescribe_velocity", real_particles(), PrescribeVelocity(particles_, box, v_r, v_z));
 }
 
 void Simulation::apply_surface_traction(const Box& box, double t_r, double t_z, double layer,
                                         double face_r) {
-  Particles& P = particles_;
-  auto x = P.x; auto a_ext = P.a_ext; auto rho = P.rho;
-  Kokkos::parallel_for("tamp::surface_traction", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
-                       KOKKOS_LAMBDA(int i) {
-                         const double r = x(i, 0), z = x(i, 1);
-                         if (r >= box.r_min && r < box.r_max && z >= box.z_min && z < box.z_max) {
-                           // force on the ring / ring mass; ring mass = rho 2 pi r layer dz
-                           const double ratio = face_r > 0 ? face_r / r : 1.0;
-                           a_ext(i, 0) += t_r * ratio / (rho(i) * layer);
-                           a_ext(i, 1) += t_z * ratio / (rho(i) * layer);
-                         }
-                       });
+  Kokkos::parallel_for("tamp::surface_traction", real_particles(),
+                       SurfaceTraction(particles_, box, t_r, t_z, layer, face_r));
+  update_pair_stress();
 }
 
 namespace {
@@ -946,12 +848,7 @@ void Simulation::load_state(const Checkpoint& c) {
 }
 
 void Simulation::refresh_planar_mass() {
-  Particles& P = particles_;
-  auto x = P.x; auto m = P.mass; auto mp = P.planar_mass;
-  const double r_floor = planar_mass_floor(config_.sph.spacing);
-  Kokkos::parallel_for("tamp::planar_mass", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), KOKKOS_LAMBDA(int i) {
-    mp(i) = planar_mass_of(m(i), x(i, 0), r_floor);
-  });
+  Kokkos::parallel_for("tamp::planar_mass", real_particles(), PlanarMass(particles_, config_.sph.spacing));
 }
 
 ParticleSnapshot Simulation::snapshot() const {

@@ -12,6 +12,7 @@
 #include "core/Material.hpp"
 #include "core/Output.hpp"
 #include "core/Particles.hpp"
+#include "kernels/BoundaryLoads.hpp"
 #include "kernels/FemModel.hpp"
 #include "kernels/EnergyAccount.hpp"
 #include "kernels/Geostatic.hpp"
@@ -26,24 +27,6 @@
 #include "models/MaterialModel.hpp"
 
 namespace tamp {
-
-struct Box {
-  double r_min, r_max, z_min, z_max;  // m; a particle is inside when r_min <= r < r_max ...
-};
-
-// One rigid body of revolution (the pounder, a punch, a sliding block) in penalty contact
-// with the particles. Its profile and mass are set once; place() puts it in the model.
-struct RigidBody {
-  RigidProfile profile;           // meridian section in the body frame, m
-  double mass = 0;                // kg (the whole body of revolution)
-  bool free_r = false, free_z = true;  // degrees of freedom integrated from the forces
-  bool kinematic = false;         // true: the velocity is prescribed (a displacement-driven punch)
-  bool active = false;            // in the model (false: lifted out)
-  double r0 = 0, z0 = 0;          // m, position of the body frame
-  double v_r = 0, v_z = 0;        // m/s
-  double a_r = 0, a_z = 0;        // m/s2, of the last step
-  ContactSums contact;            // forces on the particles in the last step (body: minus)
-};
 
 // A particle to add (backfill): position (m) and material index; density is the material's.
 struct NewParticle {
@@ -258,7 +241,6 @@ class Simulation {
   double checked_step(double dt_override) const;
   void first_half_kick(double dt);
   void drift(double dt);
-  void drift_body(double dt);
   void drift_elements(double dt);
   void rates_and_stress(double dt);
   void element_stress(double dt);
@@ -277,7 +259,6 @@ class Simulation {
   ContactLaw contact_law_;
   double contact_energy_ = 0;
   void apply_contact();
-  void integrate_body_half(double dt_half);
   double skin_ = 0;
   double time_ = 0, dt_ = 0;
   long steps_ = 0, list_builds_ = 0;

@@ -218,4 +218,18 @@ inline void NeighbourList::build(const ViewN<double, 2>& x, int n_total, int n_q
   Kokkos::fence();
 }
 
+// max_i |x_i - x_ref_i|^2 over the first n particles: the lists stay valid while no particle
+// has moved half the skin since they were built.
+inline double max_displacement_sq(const ViewN<double, 2>& x, const ViewN<double, 2>& x_ref, int n) {
+  double dmax = 0;
+  Kokkos::parallel_reduce(
+      "tamp::nl::max_displacement", Kokkos::RangePolicy<ExecSpace>(0, n),
+      KOKKOS_LAMBDA(int i, double& m) {
+        const double dr = x(i, 0) - x_ref(i, 0), dz = x(i, 1) - x_ref(i, 1);
+        m = math::max(m, dr * dr + dz * dz);
+      },
+      Kokkos::Max<double>(dmax));
+  return dmax;
+}
+
 }  // namespace tamp

@@ -4,6 +4,7 @@
 // first (core/ParticleGrid.hpp); one launch per block fills them.
 #pragma once
 #include "core/Config.hpp"
+#include "core/Material.hpp"
 #include "core/Particles.hpp"
 
 namespace tamp {
@@ -44,6 +45,50 @@ struct FillBlock {
     planar_mass(i) = planar_mass_of(mass(i), r, r_floor);
     material(i) = mat;
   }
+};
+
+// Particles added to the model (backfill): slot first + k takes the k-th new particle at
+// (r, z) at rest with its material's density and the ring mass rho0 2 pi r dp^2 of a grid
+// cell; the other fields are at a new particle's value already (Particles::fill_new). A
+// reduction: it returns the mass added, kg.
+struct PlaceNewParticles {
+  ViewN<double, 2> x, x_ref;
+  View1<double> mass, planar_mass, rho;
+  View1<int> material;
+  View1<double> new_r, new_z;
+  View1<int> new_material;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
+  int first;
+  double dp, r_floor;
+  PlaceNewParticles(const Particles& P, int first_in, const View1<double>& r, const View1<double>& z,
+                    const View1<int>& mat, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, double dp_in)
+      : new_r(r), new_z(z), new_material(mat), materials(materials_in), first(first_in), dp(dp_in),
+        r_floor(planar_mass_floor(dp_in)) {
+    x = P.x; x_ref = P.x_ref; mass = P.mass; planar_mass = P.planar_mass; rho = P.rho; material = P.material;
+  }
+  KOKKOS_INLINE_FUNCTION void operator()(const int k, double& added) const {
+    const int i = first + k;
+    const double r = new_r(k);
+    const double rho0 = materials(new_material(k)).density;
+    x(i, 0) = r; x(i, 1) = new_z(k);
+    x_ref(i, 0) = r; x_ref(i, 1) = new_z(k);
+    rho(i) = rho0;
+    mass(i) = rho0 * 2.0 * pi * r * dp * dp;
+    planar_mass(i) = planar_mass_of(mass(i), r, r_floor);
+    material(i) = new_material(k);
+    added += mass(i);
+  }
+};
+
+// The planar mass m / (2 pi r) from the current radius (after a restore or a move).
+struct PlanarMass {
+  ViewN<double, 2> x;
+  View1<double> mass, planar_mass;
+  double r_floor;
+  PlanarMass(const Particles& P, double dp) : r_floor(planar_mass_floor(dp)) {
+    x = P.x; mass = P.mass; planar_mass = P.planar_mass;
+  }
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const { planar_mass(i) = planar_mass_of(mass(i), x(i, 0), r_floor); }
 };
 
 }  // namespace tamp

@@ -180,6 +180,50 @@ inline ContactSums contact_sums(const ViewN<double, 2>& force, const ViewN<doubl
   return s;
 }
 
+// One rigid body of revolution (the pounder, a punch, a sliding block) in penalty contact
+// with the particles, and its motion: the same leapfrog as the particles (half kick, drift,
+// half kick) on the degrees of freedom it is free in. Its profile and mass are set once;
+// place() puts it in the model. Host state: one body, a few scalars.
+struct RigidBody {
+  RigidProfile profile;           // meridian section in the body frame, m
+  double mass = 0;                // kg (the whole body of revolution)
+  bool free_r = false, free_z = true;  // degrees of freedom integrated from the forces
+  bool kinematic = false;         // true: the velocity is prescribed (a displacement-driven punch)
+  bool active = false;            // in the model (false: lifted out)
+  double r0 = 0, z0 = 0;          // m, position of the body frame
+  double v_r = 0, v_z = 0;        // m/s
+  double a_r = 0, a_z = 0;        // m/s2, of the last step
+  ContactSums contact;            // forces on the particles in the last step (body: minus)
+
+  RigidBodyState state() const { return {profile, r0, z0, v_r, v_z}; }
+  void half_kick(double dt_half) {
+    if (!active || kinematic) return;
+    v_r += dt_half * a_r;
+    v_z += dt_half * a_z;
+  }
+  void drift(double dt) {
+    if (!active) return;
+    r0 += dt * v_r;
+    z0 += dt * v_z;
+  }
+  // The acceleration from the contact forces on the particles (the body takes minus their
+  // sum) and gravity, m/s2.
+  void take_contact(const ContactSums& sums, double gravity) {
+    contact = sums;
+    if (!kinematic) {
+      a_r = free_r ? -contact.force_r / mass : 0.0;
+      a_z = free_z ? -contact.force_z / mass - gravity : 0.0;
+    } else {
+      a_r = a_z = 0.0;
+    }
+  }
+  // Kinetic + potential energy (z0 the height of the body frame), J; 0 when lifted out.
+  double energy(double gravity) const {
+    if (!active) return 0.0;
+    return 0.5 * mass * (v_r * v_r + v_z * v_z) + mass * gravity * z0;
+  }
+};
+
 }  // namespace tamp
 
 namespace tamp {

@@ -13,6 +13,7 @@
 #include "core/Output.hpp"
 #include "core/Particles.hpp"
 #include "kernels/BoundaryLoads.hpp"
+#include "kernels/FemMeshGenerator.hpp"
 #include "kernels/FemModel.hpp"
 #include "kernels/EnergyAccount.hpp"
 #include "kernels/Geostatic.hpp"
@@ -23,6 +24,7 @@
 #include "kernels/RigidContact.hpp"
 #include "kernels/SphSolid.hpp"
 #include "kernels/Tie.hpp"
+#include "kernels/TieConstruction.hpp"
 #include "kernels/WallFriction.hpp"
 #include "models/MaterialModel.hpp"
 

@@ -8,6 +8,8 @@
 // sites x particles. Maxima and minima are exact whatever the order; sums go through
 // kernels/DeterministicSum.hpp, so a measurement is the same on any back end and thread count.
 #pragma once
+#include <array>
+#include <cmath>
 #include <vector>
 
 #include "core/Particles.hpp"
@@ -75,6 +77,19 @@ struct ColumnTop {
       if (k < 0 || k >= columns) continue;
       if (math::abs(x(i, 0) - (k + 0.5) * dp) < 0.5 * dp) Kokkos::atomic_fetch_max(&column_top(k), x(i, 1));
     }
+  }
+};
+
+// 1 where some particle lies within the radius of the point.
+struct Occupied {
+  CellGrid grid;
+  ViewN<double, 2> point;
+  View1<int> flag;
+  double radius2;
+  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
+    int near = 0;
+    grid.for_each_near(point(c, 0), point(c, 1), radius2, [&](int) { near = 1; });
+    flag(c) = near;
   }
 };
 
@@ -208,6 +223,22 @@ class ParticleSurvey {
         },
         Kokkos::Min<int>(best));
     return best < n_ ? best : -1;
+  }
+
+  // For each point (r, z), whether a particle lies within `radius` of it (radius at most
+  // 1.5 dp, the cells' reach).
+  std::vector<int> occupied(const std::vector<std::array<double, 2>>& points, double radius) const {
+    const int np = static_cast<int>(points.size());
+    if (np == 0) return {};
+    ViewN<double, 2> point("tamp::survey::points", np);
+    View1<int> flag("tamp::survey::occupied", np);
+    auto h = Kokkos::create_mirror_view(point);
+    for (int c = 0; c < np; ++c) { h(c, 0) = points[c][0]; h(c, 1) = points[c][1]; }
+    Kokkos::deep_copy(point, h);
+    Kokkos::parallel_for("tamp::survey::occupied", Kokkos::RangePolicy<ExecSpace>(0, np),
+                         detail::Occupied{grid_, point, flag, radius * radius});
+    const auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flag);
+    return std::vector<int>(hf.data(), hf.data() + np);
   }
 
   // For each site, whether it is free: no particle within `clearance` of it and none above it

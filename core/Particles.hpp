@@ -63,6 +63,17 @@ KOKKOS_INLINE_FUNCTION double planar_mass_of(double mass, double r, double r_flo
 }
 inline double planar_mass_floor(double spacing) { return 1e-3 * spacing; }
 
+// A particle's share of the SPH pair term, mp sigma / rho^2 (rr, zz, rz) (docs/sph.md): the
+// one definition for real particles, mirror ghosts and tie particles.
+template <class Mass, class Rho, class Sigma, class Out>
+KOKKOS_INLINE_FUNCTION void set_pair_stress(int i, const Mass& planar_mass, const Rho& rho, const Sigma& sigma,
+                                            const Out& pair_stress) {
+  const double k = planar_mass(i) / (rho(i) * rho(i));
+  pair_stress(i, 0) = k * sigma(i, 0);
+  pair_stress(i, 1) = k * sigma(i, 1);
+  pair_stress(i, 2) = k * sigma(i, 3);
+}
+
 enum class FieldCheckpoint { Saved, SavedOptional, NotSaved };
 
 struct FieldInfo {

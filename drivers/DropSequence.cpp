@@ -113,7 +113,7 @@ double DropSequence::surface_under_pounder() const {
   return survey().highest_within(0.5 * cfg_.pounder.max_diameter + 0.5 * cfg_.sph.spacing);
 }
 
-ParticleSurvey DropSequence::survey() const { return ParticleSurvey(sim_.particles(), cfg_.sph.spacing); }
+ParticleSurvey DropSequence::survey() const { return sim_.survey(); }
 
 // Crater floor after extraction, m below the original ground: the mean top of the
 // material (any, aggregate included) in the radial columns of width dp under the pounder's

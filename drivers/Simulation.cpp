@@ -215,13 +215,11 @@ void Simulation::compute_acceleration() {
   if (fem_ && tie_.count > 0) {
     Timed t(*this, &StepProfile::tie);  // the interface traction from the stresses of both sides
     Kokkos::parallel_for("tamp::tie::traction", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
-                         TieTraction{P.x, P.planar_mass, P.rho, P.sigma, neighbours_.offsets, neighbours_.neighbours,
-                                     tie_.normal, tie_.depth, tie_.face_area, tie_.force, sph_.h,
-                                     P.n_real});
+                         TieTraction(P, neighbours_, tie_, sph_.h));
     fem::FemMesh& mesh = fem_->mesh();
     Kokkos::deep_copy(mesh.f_tie, 0.0);
     Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
-                         TieForceToNodes{tie_.force, mesh.f_tie, tie_.edge_a, tie_.edge_b, tie_.edge_s});
+                         TieForceToNodes(tie_, mesh));
   }
   {
     Timed t(*this, &StepProfile::boundaries);
@@ -855,17 +853,14 @@ void Simulation::sync_tie_kinematics() {
   Particles& P = particles_;
   const fem::FemMesh& mesh = fem_->mesh();
   Kokkos::parallel_for("tamp::tie::kinematics", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
-                       SyncTieKinematics{P.x, P.v, P.mass, P.planar_mass, P.rho, P.material, P.flags, tie_.element,
-                                         tie_.parent, tie_.follow, tie_.planar_mass, tie_.material, P.n_real, mesh.x, mesh.x0, mesh.v,
-                                         mesh.conn, mesh.elem_mass, mesh.volume, planar_mass_floor(config_.sph.spacing)});
+                       SyncTieKinematics(P, tie_, mesh, planar_mass_floor(config_.sph.spacing)));
 }
 
 void Simulation::sync_tie_stress() {
   Particles& P = particles_;
   const fem::FemMesh& mesh = fem_->mesh();
   Kokkos::parallel_for("tamp::tie::stress", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
-                       SyncTieStress{P.sigma, P.art_stress, P.pair_stress, P.planar_mass, P.rho, tie_.element,
-                                     mesh.stress, P.n_real});
+                       SyncTieStress(P, tie_, mesh));
 }
 
 void Simulation::tie_fem(fem::FemModel& fem, const std::vector<std::string>& fem_materials) {

@@ -19,6 +19,7 @@
 #include "kernels/Geostatic.hpp"
 #include "kernels/ParticleGenerator.hpp"
 #include "kernels/Integrate.hpp"
+#include "kernels/Measurements.hpp"
 #include "kernels/Mirror.hpp"
 #include "kernels/NeighbourList.hpp"
 #include "kernels/RigidContact.hpp"
@@ -108,6 +109,8 @@ class Simulation {
   double smoothing_length() const { return sph_.h; }
   double spacing() const { return config_.sph.spacing; }
   int particle_count() const { return particles_.n_real; }
+  // The real particles binned for measurements (kernels/Measurements.hpp).
+  ParticleSurvey survey() const { return ParticleSurvey(particles_, config_.sph.spacing); }
   int ghost_count() const { return ghosts_.ghost_count(); }
   long neighbour_list_builds() const { return list_builds_; }
   double mean_neighbours() const { return double(neighbours_.pair_count()) / particles_.n_real; }

@@ -79,9 +79,7 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
      << "materials:\n";
   // Each material's own stable step h / c_p (at rest) against the run's, and its particles:
   // what a material would need if it were stepped alone (issue 14: multi-rate stepping).
-  const tamp::ParticleSnapshot snap = sim.snapshot();
-  std::vector<long> count(cfg.materials.size(), 0);
-  for (int m : snap.material) ++count[m];
+  const std::vector<long> count = sim.survey().count_by_material(static_cast<int>(cfg.materials.size()));
   double c_max = 0;
   for (size_t k = 0; k < cfg.materials.size(); ++k)
     if (count[k] > 0) c_max = std::max(c_max, sim.materials()[k].wave_speed());

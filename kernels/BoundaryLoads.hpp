@@ -3,10 +3,26 @@
 // displacement-driven punch or plate) and a surface traction (a footing, an overburden). One
 // particle per thread, no shared writes.
 #pragma once
+#include "core/Material.hpp"
 #include "core/Particles.hpp"
 #include "kernels/Mirror.hpp"
 
 namespace tamp {
+
+// The viscous-spring boundary per unit area of a face (the one law for particles and
+// elements, docs/sph.md "Non-reflecting boundaries"): dashpots rho c_p (normal) and rho c_s
+// (tangential) (Lysmer & Kuhlemeyer 1969), springs K_n = 4G / (3R) and K_t = K_n / 2 (Deeks &
+// Randolph 1994, Liu et al. 2006) for the distance R to the soil's far side (R <= 0: none).
+struct ViscousSpring {
+  double dashpot_n, dashpot_t;  // Pa s/m
+  double spring_n, spring_t;    // Pa/m
+};
+KOKKOS_INLINE_FUNCTION ViscousSpring viscous_spring(const MaterialParams& m, double rho, double spring_distance) {
+  const double G = m.shear_modulus;
+  const double cp = math::sqrt(m.p_wave_modulus() / rho), cs = math::sqrt(G / rho);
+  const double kn = spring_distance > 0 ? 4.0 * G / (3.0 * spring_distance) : 0.0;
+  return {rho * cp, rho * cs, kn, 0.5 * kn};
+}
 
 // A box of the meridian plane, m: a particle is inside when r_min <= r < r_max and
 // z_min <= z < z_max.

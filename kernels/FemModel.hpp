@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels/BoundaryLoads.hpp"
 #include "kernels/FemQuad.hpp"
 
 namespace tamp::fem {
@@ -270,19 +271,17 @@ class FemModel {
       const int e = side_element(side, k);
       if (e < 0) continue;  // no element along this piece of the side
       const MaterialParams& m = materials_host_[element_material(e)];
-      const double rho = m.density, G = m.shear_modulus;
-      const double cp = std::sqrt(m.p_wave_modulus() / rho), cs = std::sqrt(G / rho);
-      const double kn = spring_distance > 0 ? 4.0 * G / (3.0 * spring_distance) : 0.0, kt = 0.5 * kn;
+      const ViscousSpring vs = viscous_spring(m, m.density, spring_distance);  // kernels/BoundaryLoads.hpp
       const int a = side_node(side, k), b = side_node(side, k + 1);
       const double ra = x_h(a, 0), rb = x_h(b, 0);
       const double len = std::hypot(x_h(b, 0) - ra, x_h(b, 1) - x_h(a, 1));
       // Int N_a 2 pi r ds over a straight edge with r linear: 2 pi L (2 r_a + r_b) / 6
       const double Aa = 2.0 * pi * len * (2.0 * ra + rb) / 6.0, Ab = 2.0 * pi * len * (ra + 2.0 * rb) / 6.0;
       for (const auto& [n, A] : {std::pair<int, double>{a, Aa}, std::pair<int, double>{b, Ab}}) {
-        c_h(n, nrm) += rho * cp * A;
-        c_h(n, tan) += rho * cs * A;
-        k_h(n, nrm) += kn * A;
-        k_h(n, tan) += kt * A;
+        c_h(n, nrm) += vs.dashpot_n * A;
+        c_h(n, tan) += vs.dashpot_t * A;
+        k_h(n, nrm) += vs.spring_n * A;
+        k_h(n, tan) += vs.spring_t * A;
       }
     }
     Kokkos::deep_copy(mesh_.dashpot, c_h);

@@ -78,13 +78,19 @@ struct QuadGeometry {
   double br[4] = {0, 0, 0, 0}, bz[4] = {0, 0, 0, 0}, bt[4] = {0, 0, 0, 0};  // 1/m
 };
 
-// Shape function derivatives of the bilinear quad at (xi, eta); node order (-,-), (+,-),
-// (+,+), (-,+).
+// The bilinear quad's shape functions at (xi, eta); node order (-,-), (+,-), (+,+), (-,+)
+// (counter-clockwise from (-1, -1)).
+KOKKOS_INLINE_FUNCTION void bilinear(double xi, double eta, double N[4]) {
+  const double xs[4] = {-1, 1, 1, -1}, es[4] = {-1, -1, 1, 1};
+  for (int k = 0; k < 4; ++k) N[k] = 0.25 * (1 + xs[k] * xi) * (1 + es[k] * eta);
+}
+
+// The shape functions and their derivatives at (xi, eta).
 KOKKOS_INLINE_FUNCTION void quad_shape(double xi, double eta, double N[4], double dxi[4],
                                        double deta[4]) {
   const double xs[4] = {-1, 1, 1, -1}, es[4] = {-1, -1, 1, 1};
+  bilinear(xi, eta, N);
   for (int k = 0; k < 4; ++k) {
-    N[k] = 0.25 * (1 + xs[k] * xi) * (1 + es[k] * eta);
     dxi[k] = 0.25 * xs[k] * (1 + es[k] * eta);
     deta[k] = 0.25 * es[k] * (1 + xs[k] * xi);
   }

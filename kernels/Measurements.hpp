@@ -189,6 +189,16 @@ class ParticleSurvey {
     })[0];
   }
 
+  // Particles of each material (indices 0 .. materials - 1).
+  std::vector<long> count_by_material(int materials) const {
+    const auto mat = material_;
+    const std::vector<double> c = fixed_order_sums(
+        "tamp::survey::count_by_material", n_, materials, KOKKOS_LAMBDA(int i, double* s) {
+          if (mat(i) >= 0 && mat(i) < materials) s[mat(i)] += 1.0;  // exact below 2^53
+        });
+    return std::vector<long>(c.begin(), c.end());
+  }
+
   // Highest particle centre with r < reach, m (-1e300 when none).
   double highest_within(double reach) const {
     const auto x = x_;

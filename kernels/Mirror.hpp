@@ -150,10 +150,7 @@ inline void MirrorGhosts::sync_stress(Particles& p, double gravity) const {
           R(g, 1) = R(s, 1);
           R(g, 2) = -R(s, 2);
           rho(g) = rho(s);
-          const double k = mp(g) / (rho(g) * rho(g));  // PairStress of the ghost
-          ps(g, 0) = k * sigma(g, 0);
-          ps(g, 1) = k * sigma(g, 1);
-          ps(g, 2) = k * sigma(g, 3);
+          set_pair_stress(g, mp, rho, sigma, ps);  // core/Particles.hpp
         });
   }
 }

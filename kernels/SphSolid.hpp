@@ -16,6 +16,7 @@
 #pragma once
 #include "core/Material.hpp"
 #include "core/Particles.hpp"
+#include "kernels/BoundaryLoads.hpp"
 #include "kernels/NeighbourList.hpp"
 #include "kernels/Wendland.hpp"
 #include "models/StressUpdate.hpp"
@@ -299,12 +300,7 @@ struct PairStress {
   explicit PairStress(const Particles& P) {
     planar_mass = P.planar_mass; rho = P.rho; sigma = P.sigma; pair_stress = P.pair_stress;
   }
-  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
-    const double k = planar_mass(i) / (rho(i) * rho(i));
-    pair_stress(i, 0) = k * sigma(i, 0);
-    pair_stress(i, 1) = k * sigma(i, 1);
-    pair_stress(i, 2) = k * sigma(i, 3);
-  }
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const { set_pair_stress(i, planar_mass, rho, sigma, pair_stress); }
 };
 
 // Non-reflecting viscous-spring boundary. The particles held by a boundary (its boundary
@@ -340,16 +336,12 @@ struct NonReflectingBoundary {
     for (int k = 0; k < planes.count; ++k) {
       if (!(flags(i) & (FLAG_HELD_BOUNDARY << k))) continue;
       const MirrorPlane& pl = planes.plane[k];
-      const MaterialParams& m = materials(material(i));
-      const double G = m.shear_modulus;
-      const double cp = math::sqrt(m.p_wave_modulus() / rho(i)), cs = math::sqrt(G / rho(i));
-      const double Kn = pl.spring_distance > 0 ? 4.0 * G / (3.0 * pl.spring_distance) : 0.0;
-      const double Kt = 0.5 * Kn;
+      const ViscousSpring b = viscous_spring(materials(material(i)), rho(i), pl.spring_distance);
       const int n = pl.axis, t = 1 - pl.axis;
       const double ratio = pl.axis == 0 ? pl.position / math::max(x(i, 0), 1e-12) : 1.0;
       const double k_a = ratio / (rho(i) * dp);
-      const double an = k_a * (traction0(i, n) - rho(i) * cp * v(i, n) - Kn * (x(i, n) - x_hold(i, n)));
-      const double at = k_a * (traction0(i, t) - rho(i) * cs * v(i, t) - Kt * (x(i, t) - x_hold(i, t)));
+      const double an = k_a * (traction0(i, n) - b.dashpot_n * v(i, n) - b.spring_n * (x(i, n) - x_hold(i, n)));
+      const double at = k_a * (traction0(i, t) - b.dashpot_t * v(i, t) - b.spring_t * (x(i, t) - x_hold(i, t)));
       a(i, n) += an;
       a(i, t) += at;
       a_boundary(i, n) += an;
@@ -397,28 +389,20 @@ struct StressRegularisation {
     const double xa = x(a, 0), za = x(a, 1);
     // moment matrix (symmetric 3x3), self term included
     const double w0 = W.value(0.0) * planar_mass(a) / rho(a);
-    double A00 = w0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;
+    LinearMlsFit fit;  // kernels/Wendland.hpp
+    fit.add(w0, 0.0, 0.0);
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = x(b, 0) - xa, dz = x(b, 1) - za;
-      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b);
-      A00 += w; A01 += w * dr; A02 += w * dz;
-      A11 += w * dr * dr; A12 += w * dr * dz; A22 += w * dz * dz;
+      fit.add(W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b), dr, dz);
     }
-    // beta = A^-1 e1 (first column of the inverse, by cofactors)
-    const double c00 = A11 * A22 - A12 * A12;
-    const double c01 = -(A01 * A22 - A12 * A02);
-    const double c02 = A01 * A12 - A11 * A02;
-    const double det = A00 * c00 + A01 * c01 + A02 * c02;
-    double b0 = 1.0 / A00, b1 = 0.0, b2 = 0.0;  // Shepard fallback
-    if (math::abs(det) > 1e-12 * math::abs(A00 * c00)) {
-      b0 = c00 / det; b1 = c01 / det; b2 = c02 / det;
-    }
+    fit.solve();
+    const double b0 = fit.b0;
     double s[4] = {sigma(a, 0) * w0 * b0, sigma(a, 1) * w0 * b0, sigma(a, 2) * w0 * b0, sigma(a, 3) * w0 * b0};
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = x(b, 0) - xa, dz = x(b, 1) - za;
-      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b) * (b0 + b1 * dr + b2 * dz);
+      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(b) / rho(b) * fit.factor(dr, dz);
       for (int c = 0; c < 4; ++c) s[c] += sigma(b, c) * w;
     }
     for (int c = 0; c < 4; ++c) sigma_out(a, c) = s[c];

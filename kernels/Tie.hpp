@@ -18,6 +18,7 @@
 #pragma once
 #include "core/Particles.hpp"
 #include "kernels/FemQuad.hpp"
+#include "kernels/NeighbourList.hpp"
 #include "kernels/Wendland.hpp"
 
 namespace tamp {
@@ -38,13 +39,6 @@ struct TieParticles {
   View1<int> material;           // index in the SPH material table (its element's material)
 };
 
-// Bilinear shape functions, nodes counter-clockwise from (xi, eta) = (-1, -1).
-KOKKOS_INLINE_FUNCTION void bilinear(double xi, double eta, double N[4]) {
-  N[0] = 0.25 * (1 - xi) * (1 - eta);
-  N[1] = 0.25 * (1 + xi) * (1 - eta);
-  N[2] = 0.25 * (1 + xi) * (1 + eta);
-  N[3] = 0.25 * (1 - xi) * (1 + eta);
-}
 
 // Position, velocity, density and masses of the tie particles from the FEM nodes.
 struct SyncTieKinematics {
@@ -62,11 +56,20 @@ struct SyncTieKinematics {
   Kokkos::View<int* [4], MemSpace> conn;
   View1<double> elem_mass, elem_volume;
   double r_floor;
+  // Built by name from the particles, the tie and the element mesh.
+  SyncTieKinematics(const Particles& P, const TieParticles& tie, const fem::FemMesh& mesh, double r_floor_in)
+      : r_floor(r_floor_in) {
+    x = P.x; v = P.v; mass = P.mass; planar_mass = P.planar_mass; rho = P.rho; material = P.material; flags = P.flags;
+    element = tie.element; parent = tie.parent; follow = tie.follow; tie_planar_mass = tie.planar_mass;
+    tie_material = tie.material; n_real = P.n_real;
+    node_x = mesh.x; node_x0 = mesh.x0; node_v = mesh.v; conn = mesh.conn; elem_mass = mesh.elem_mass;
+    elem_volume = mesh.volume;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
     const int i = n_real + k, e = element(k);
     double N[4], F[4];
-    bilinear(parent(k, 0), parent(k, 1), N);
-    bilinear(follow(k, 0), follow(k, 1), F);
+    fem::bilinear(parent(k, 0), parent(k, 1), N);  // kernels/FemQuad.hpp
+    fem::bilinear(follow(k, 0), follow(k, 1), F);
     double xr = 0, xz = 0, vr = 0, vz = 0;
     for (int q = 0; q < 4; ++q) {
       const int n = conn(e, q);
@@ -93,14 +96,15 @@ struct SyncTieStress {
   View1<int> element;
   ViewN<double, 4> elem_stress;
   int n_real;
+  SyncTieStress(const Particles& P, const TieParticles& tie, const fem::FemMesh& mesh) {
+    sigma = P.sigma; art_stress = P.art_stress; pair_stress = P.pair_stress; planar_mass = P.planar_mass; rho = P.rho;
+    element = tie.element; elem_stress = mesh.stress; n_real = P.n_real;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
     const int i = n_real + k, e = element(k);
     for (int c = 0; c < 4; ++c) sigma(i, c) = elem_stress(e, c);
     for (int c = 0; c < 3; ++c) art_stress(i, c) = 0.0;
-    const double f = planar_mass(i) / (rho(i) * rho(i));
-    pair_stress(i, 0) = f * sigma(i, 0);
-    pair_stress(i, 1) = f * sigma(i, 1);
-    pair_stress(i, 2) = f * sigma(i, 3);
+    set_pair_stress(i, planar_mass, rho, sigma, pair_stress);  // core/Particles.hpp
   }
 };
 
@@ -119,6 +123,11 @@ struct TieTraction {
   ViewN<double, 2> force;
   double h;
   int n_real;
+  TieTraction(const Particles& P, const NeighbourList& list, const TieParticles& tie, double h_in) : h(h_in) {
+    x = P.x; planar_mass = P.planar_mass; rho = P.rho; sigma = P.sigma;
+    offsets = list.offsets; neighbours = list.neighbours;
+    normal = tie.normal; depth = tie.depth; face_area = tie.face_area; force = tie.force; n_real = P.n_real;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
     if (face_area(k) == 0.0) {
       force(k, 0) = 0.0;
@@ -129,23 +138,18 @@ struct TieTraction {
     const double nr = normal(k, 0), nz = normal(k, 1);
     const double pr = x(b, 0) + depth(k) * nr, pz = x(b, 1) + depth(k) * nz;
     const Wendland2D W(h);
-    double A00 = 0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;
+    LinearMlsFit fit;  // kernels/Wendland.hpp
     auto accumulate = [&](int j) {
       const double dr = x(j, 0) - pr, dz = x(j, 1) - pz;
-      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(j) / rho(j);
-      A00 += w; A01 += w * dr; A02 += w * dz;
-      A11 += w * dr * dr; A12 += w * dr * dz; A22 += w * dz * dz;
+      fit.add(W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(j) / rho(j), dr, dz);
     };
     accumulate(b);
     for (int q = offsets(b); q < offsets(b + 1); ++q) accumulate(neighbours(q));
-    const double c00 = A11 * A22 - A12 * A12, c01 = -(A01 * A22 - A12 * A02), c02 = A01 * A12 - A11 * A02;
-    const double det = A00 * c00 + A01 * c01 + A02 * c02;
-    double b0 = 1.0 / A00, b1 = 0.0, b2 = 0.0;  // Shepard where the fit is singular
-    if (math::abs(det) > 1e-12 * math::abs(A00 * c00)) { b0 = c00 / det; b1 = c01 / det; b2 = c02 / det; }
+    fit.solve();
     double s[4] = {0, 0, 0, 0};
     auto add = [&](int j) {
       const double dr = x(j, 0) - pr, dz = x(j, 1) - pz;
-      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(j) / rho(j) * (b0 + b1 * dr + b2 * dz);
+      const double w = W.value(math::sqrt(dr * dr + dz * dz)) * planar_mass(j) / rho(j) * fit.factor(dr, dz);
       for (int c = 0; c < 4; ++c) s[c] += w * sigma(j, c);
     };
     add(b);
@@ -161,6 +165,9 @@ struct TieForceToNodes {
   ViewN<double, 2> force, f_tie;
   View1<int> edge_a, edge_b;
   View1<double> edge_s;
+  TieForceToNodes(const TieParticles& tie, const fem::FemMesh& mesh) {
+    force = tie.force; f_tie = mesh.f_tie; edge_a = tie.edge_a; edge_b = tie.edge_b; edge_s = tie.edge_s;
+  }
   KOKKOS_INLINE_FUNCTION void operator()(const int k) const {
     const double s = edge_s(k);
     for (int c = 0; c < 2; ++c) {

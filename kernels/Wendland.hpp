@@ -40,4 +40,29 @@ struct Wendland2D {
   }
 };
 
+// The linear moving-least-squares fit around a point p: moments
+//   A = sum_j w_j q_j q_j^T,  q_j = (1, r_j - r_p, z_j - z_p)  (w_j = V_j W(x_j - p)),
+// and beta = A^-1 e1, so that sum_j w_j (beta . q_j) f_j reproduces constant and linear
+// fields f exactly; beta = (1 / A00, 0, 0) (Shepard) where A is singular. Used by the stress
+// regularisation (kernels/SphSolid.hpp) and the tie's interface stress (kernels/Tie.hpp).
+struct LinearMlsFit {
+  double A00 = 0, A01 = 0, A02 = 0, A11 = 0, A12 = 0, A22 = 0;
+  double b0 = 0, b1 = 0, b2 = 0;
+  KOKKOS_INLINE_FUNCTION void add(double w, double dr, double dz) {
+    A00 += w; A01 += w * dr; A02 += w * dz;
+    A11 += w * dr * dr; A12 += w * dr * dz; A22 += w * dz * dz;
+  }
+  // beta = A^-1 e1 (the first column of the inverse, by cofactors)
+  KOKKOS_INLINE_FUNCTION void solve() {
+    const double c00 = A11 * A22 - A12 * A12;
+    const double c01 = -(A01 * A22 - A12 * A02);
+    const double c02 = A01 * A12 - A11 * A02;
+    const double det = A00 * c00 + A01 * c01 + A02 * c02;
+    b0 = 1.0 / A00; b1 = 0.0; b2 = 0.0;
+    if (math::abs(det) > 1e-12 * math::abs(A00 * c00)) { b0 = c00 / det; b1 = c01 / det; b2 = c02 / det; }
+  }
+  // The fit's weight factor beta . q of a point at (dr, dz) from p.
+  KOKKOS_INLINE_FUNCTION double factor(double dr, double dz) const { return b0 + b1 * dr + b2 * dz; }
+};
+
 }  // namespace tamp

@@ -113,7 +113,7 @@ class DropSequence {
   // column.csv and summary.json.
   void write_tables(double wall_s) const;
   ColumnSummary column() const;
-  // The keys of summary.json (numbers), e.g. for the closed loop (drivers/Loop.hpp).
+  // The keys of summary.json (numbers), e.g. for the closed loop (drivers/Calibration.hpp).
   std::vector<std::pair<std::string, double>> summary(double wall_s) const;
   // Volume balance (the trace of compaction): heave volume of the soil surface above the
   // ground level, and the volume of the aggregate below it, m3.

@@ -1,4 +1,4 @@
-// Independent forward runs of a calibration or diagnosis (drivers/Loop.hpp), run side by
+// Independent forward runs of a calibration or diagnosis (drivers/Calibration.hpp), run side by
 // side and remembered (docs/closing-the-loop.md "Forward runs in parallel").
 //
 // A batch of decks is run in order of submission. With jobs = 1 each run is done in this
@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "core/Config.hpp"
-#include "drivers/Loop.hpp"
+#include "drivers/Calibration.hpp"
 
 namespace tamp {
 

@@ -29,7 +29,7 @@
 #include "core/Output.hpp"
 #include "drivers/DropSequence.hpp"
 #include "drivers/ForwardRuns.hpp"
-#include "drivers/Loop.hpp"
+#include "drivers/Calibration.hpp"
 #include "drivers/Ranks.hpp"
 #include "drivers/Simulation.hpp"
 

@@ -182,8 +182,8 @@ struct Acceleration {
   // caller by name.
   Acceleration(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_in,
                const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
-               const Kokkos::View<const double*, MemSpace>& fab_table_in)
-      : pair_gradient_factor(pair_gradient_factor_in), materials(materials_in), p(p_in), artificial_stress_factors(fab_table_in) {
+               const Kokkos::View<const double*, MemSpace>& artificial_stress_factors_in)
+      : pair_gradient_factor(pair_gradient_factor_in), materials(materials_in), p(p_in), artificial_stress_factors(artificial_stress_factors_in) {
     x = P.x; v = P.v; a = P.a; a_ext = P.a_ext; flags = P.flags; mass = P.mass; rho = P.rho;
     du_visc = P.du_visc; sigma = P.sigma; pair_stress = P.pair_stress; art_stress = P.art_stress;
     material = P.material; hoop_factor = P.hoop_factor;

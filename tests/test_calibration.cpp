@@ -12,7 +12,7 @@
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
 #include "drivers/ForwardRuns.hpp"
-#include "drivers/Loop.hpp"
+#include "drivers/Calibration.hpp"
 
 // Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
 // CUDA math headers (nvcc).

@@ -1,4 +1,4 @@
-#include "drivers/Loop.hpp"
+#include "drivers/Calibration.hpp"
 #include "models/MaterialModel.hpp"
 
 #include <Eigen/Dense>

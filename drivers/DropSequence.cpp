@@ -529,52 +529,89 @@ void DropSequence::end_stage(int k) {
   write_tables(wall_done_);
 }
 
-void DropSequence::run_stage(int k, const std::function<bool()>& keep_going, bool& stopped) {
+void DropSequence::begin_stage(int k) {
   const Stage& s = stages_[k];
   const ScheduleSpec& sch = cfg_.schedule;
-  const double w0 = wall_now();
-  const double wall_before = stage_wall_;
-  if (!in_stage_) {
-    in_stage_ = true;
-    stage_t0_ = sim_.time();
-    switch (s.kind) {
-      case StageKind::Relax: sim_.set_damping(sch.damping); break;
-      case StageKind::Impact: begin_impact(s); break;
-      case StageKind::Extract: sim_.remove_body(); sim_.set_damping(sch.damping); break;
-      case StageKind::Backfill: backfill(s); break;
-    }
+  in_stage_ = true;
+  stage_t0_ = sim_.time();
+  switch (s.kind) {
+    case StageKind::Relax: sim_.set_damping(sch.damping); break;
+    case StageKind::Impact: begin_impact(s); break;
+    case StageKind::Extract: sim_.remove_body(); sim_.set_damping(sch.damping); break;
+    case StageKind::Backfill: backfill(s); break;
   }
+}
+
+bool DropSequence::stage_step(int k) {
+  const Stage& s = stages_[k];
+  const ScheduleSpec& sch = cfg_.schedule;
   const double duration = s.kind == StageKind::Relax     ? sch.relax_time
                           : s.kind == StageKind::Extract ? sch.extract_time
                           : s.kind == StageKind::Backfill ? sch.settle_time
                                                           : 0.0;
-  double last_wall = wall_now();
-  for (;;) {
-    bool more;
-    const double t_before = sim_.time();
-    const long steps_before = sim_.steps();
-    if (s.kind == StageKind::Impact) {
-      more = impact_step();
-    } else {
-      more = sim_.time() - stage_t0_ < duration * (1.0 - 1e-12);
-      if (more) sim_.step();
-    }
-    const double now = wall_now();
-    PhaseTime& pt = phase_time_[static_cast<int>(step_phase(s))];
-    pt.steps += sim_.steps() - steps_before;
-    pt.simulated_s += sim_.time() - t_before;
-    pt.wall_s += now - last_wall;
-    last_wall = now;
-    stage_wall_ = wall_before + (now - w0);
-    record(false);
-    progress(k, false);
-    if (!more) break;
-    if (keep_going && !keep_going()) {
-      stopped = true;
-      return;
-    }
+  bool more;
+  const double t_before = sim_.time();
+  const long steps_before = sim_.steps();
+  const double w0 = wall_now();
+  if (s.kind == StageKind::Impact) {
+    more = impact_step();
+  } else {
+    more = sim_.time() - stage_t0_ < duration * (1.0 - 1e-12);
+    if (more) sim_.step();
   }
+  const double now = wall_now();
+  PhaseTime& pt = phase_time_[static_cast<int>(step_phase(s))];
+  pt.steps += sim_.steps() - steps_before;
+  pt.simulated_s += sim_.time() - t_before;
+  pt.wall_s += now - w0;
+  record(false);
+  progress(k, false);
+  return more;
+}
+
+bool DropSequence::step() {
+  if (!started_) {
+    started_ = true;
+    if (next_stage_ == 0 && !in_stage_) record(true);
+  }
+  if (next_stage_ >= static_cast<int>(stages_.size())) {
+    // Tables and summary of the finished run (also after a restart from its last checkpoint:
+    // that re-measures a finished run with the current measurement code).
+    write_tables(wall_done_);
+    return false;
+  }
+  const int k = next_stage_;
+  const double w0 = wall_now();
+  if (!in_stage_) begin_stage(k);
+  const bool more = stage_step(k);
+  stage_wall_ += wall_now() - w0;
+  if (more) return true;
   end_stage(k);
+  progress(k, true);
+  if (stop_after_ >= 0 && k >= stop_after_) return false;
+  return true;
+}
+
+void DropSequence::interrupt() {
+  const std::string path = out_ + "/checkpoints/interrupted.h5";
+  write_checkpoint_h5(path, checkpoint());
+  last_checkpoint_ = path;
+  write_tables(wall_done_ + stage_wall_);
+}
+
+void DropSequence::write_partial() { write_tables(wall_done_ + stage_wall_); }
+
+std::string DropSequence::where() const { return "in stage " + std::to_string(next_stage_); }
+
+std::string DropSequence::finished_line(double wall_s) const {
+  const bool done = next_stage_ >= static_cast<int>(stages_.size());
+  std::ostringstream msg;
+  char wall[32];
+  std::snprintf(wall, sizeof wall, "%.1f", wall_s);
+  msg << (done ? "finished: " : "stopped after stage " + std::to_string(next_stage_ - 1) + ": ") << sim_.steps()
+      << " steps, t = " << sim_.time() << " s, " << sim_.particle_count() << " particles, wall " << wall
+      << " s this run; results in " << out_;
+  return msg.str();
 }
 
 Phase DropSequence::step_phase(const Stage& s) const {
@@ -589,30 +626,9 @@ Phase DropSequence::step_phase(const Stage& s) const {
 }
 
 bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) {
-  if (next_stage_ == 0 && !in_stage_) record(true);
-  while (next_stage_ < static_cast<int>(stages_.size())) {
-    const int k = next_stage_;
-    bool stopped = false;
-    try {
-      run_stage(k, keep_going, stopped);
-    } catch (const RunFailure&) {
-      write_tables(wall_done_ + stage_wall_);
-      throw;
-    }
-    if (stopped) {
-      const std::string path = out_ + "/checkpoints/interrupted.h5";
-      write_checkpoint_h5(path, checkpoint());
-      last_checkpoint_ = path;
-      write_tables(wall_done_ + stage_wall_);
-      return false;
-    }
-    progress(k, true);
-    if (stop_after >= 0 && k >= stop_after) return next_stage_ >= static_cast<int>(stages_.size());
-  }
-  // Tables and summary of the finished run (also after a restart from its last checkpoint:
-  // that re-measures a finished run with the current measurement code).
-  write_tables(wall_done_);
-  return true;
+  stop_after_ = stop_after;
+  run_steps(*this, keep_going);  // drivers/RunLoop.hpp
+  return next_stage_ >= static_cast<int>(stages_.size());
 }
 
 double DropSequence::uplift() const { return uplift(survey()); }

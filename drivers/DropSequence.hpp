@@ -17,6 +17,7 @@
 #include <vector>
 #include "core/Config.hpp"
 #include "core/Output.hpp"
+#include "drivers/RunLoop.hpp"
 #include "drivers/Simulation.hpp"
 #include "kernels/Measurements.hpp"
 
@@ -90,7 +91,7 @@ struct Stage {
   int blow;  // 1-based; 0 for relax
 };
 
-class DropSequence {
+class DropSequence : public Run {
  public:
   // `out` is the result folder (exists); outputs and checkpoints go there.
   DropSequence(Simulation& sim, const Config& cfg, std::string out);
@@ -103,11 +104,20 @@ class DropSequence {
   // Resume from a checkpoint written by this class (stage end or interruption).
   void restore(const Checkpoint& c);
 
-  // Runs the remaining stages. Stops after stage `stop_after` (0-based) if >= 0, or when
-  // `keep_going` returns false (checked every step; the state is then checkpointed to
-  // checkpoints/interrupted.h5). Returns true when every stage is done. Throws RunFailure
-  // (NaN, collapsing step) after writing what is known so far.
+  // Runs the remaining stages (through run_steps, drivers/RunLoop.hpp). Stops after stage
+  // `stop_after` (0-based) if >= 0, or when `keep_going` returns false (checked every step;
+  // the state is then checkpointed to checkpoints/interrupted.h5). Returns true when every
+  // stage is done. Throws RunFailure (NaN, collapsing step) after writing what is known so far.
   bool run(int stop_after = -1, const std::function<bool()>& keep_going = {});
+  // Stop after stage k (0-based; -1: run every stage).
+  void set_stop_after(int k) { stop_after_ = k; }
+
+  // Run (drivers/RunLoop.hpp): one step of the current stage, starting and ending stages.
+  bool step() override;
+  void interrupt() override;      // checkpoints/interrupted.h5 and the tables so far
+  void write_partial() override;  // the tables so far
+  std::string where() const override;
+  std::string finished_line(double wall_s) const override;
 
   // Writes blows.csv, tracers.csv, pounder.csv, energy.csv and, when every stage is done,
   // column.csv and summary.json.
@@ -120,12 +130,13 @@ class DropSequence {
   double heave_volume() const;
   double aggregate_volume_below_ground() const;
   double uplift() const;
-  std::string last_checkpoint() const { return last_checkpoint_; }
+  std::string last_checkpoint() const override { return last_checkpoint_; }
   // false: no per-stage snapshots and checkpoints (forward runs of a calibration)
   void set_stage_files(bool on) { stage_files_ = on; }
 
  private:
-  void run_stage(int k, const std::function<bool()>& keep_going, bool& stopped);
+  void begin_stage(int k);
+  bool stage_step(int k);  // one step of stage k; false when the stage is done
   void begin_impact(const Stage& s);
   bool impact_step();       // false when the stage is done
   void end_impact(BlowRecord& rec);
@@ -153,6 +164,8 @@ class DropSequence {
   int backfill_material_ = -1;
   // stage-internal state (saved with an interrupted stage)
   bool in_stage_ = false;
+  int stop_after_ = -1;
+  bool started_ = false;  // the first step() of this object has run
   double stage_t0_ = 0, rest_since_ = -1, z_start_ = 0, peak_dec_ = 0;
   int phase_ = 0;            // impact: 0 moving, 1 damped rest
   // impact: contact tracking (see impact_step)

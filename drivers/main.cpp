@@ -19,6 +19,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <thread>
 
@@ -28,6 +29,8 @@
 #include "core/Log.hpp"
 #include "core/Output.hpp"
 #include "drivers/DropSequence.hpp"
+#include "drivers/PlainRun.hpp"
+#include "drivers/RunLoop.hpp"
 #include "drivers/ForwardRuns.hpp"
 #include "drivers/Calibration.hpp"
 #include "drivers/Ranks.hpp"
@@ -114,47 +117,6 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
      << "pounder:     " << cfg.pounder.mass << " kg, base " << cfg.pounder.base_diameter << " m, max "
      << cfg.pounder.max_diameter << " m, height " << cfg.pounder.height << " m; friction FS "
      << cfg.contact.static_friction << " FD " << cfg.contact.dynamic_friction << "\n";
-}
-
-// A dynamic-replacement run: the stage sequence of the deck's [schedule].
-int run_sequence(const Config& cfg, Simulation& sim, const std::string& out, const tamp::Checkpoint* resume,
-                 int stop_after, bool stage_files) {
-  tamp::DropSequence seq(sim, cfg, out);
-  seq.set_stage_files(stage_files);
-  if (resume) {
-    seq.restore(*resume);
-    tamp::log::info("restarted at stage " + std::to_string(seq.next_stage()) + " of " +
-                    std::to_string(seq.stages().size()) + ", t = " + std::to_string(sim.time()) + " s");
-  }
-  std::signal(SIGINT, on_sigint);
-  const auto t0 = std::chrono::steady_clock::now();
-  bool done = false;
-  try {
-    done = seq.run(stop_after, [] { return !g_interrupted.load(); });
-  } catch (const RunFailure& e) {
-    tamp::log::error("run failed in stage " + std::to_string(seq.next_stage()) + ": " + e.what() +
-                     "; last good state: " + (seq.last_checkpoint().empty() ? std::string("none") : seq.last_checkpoint()) +
-                     " (resume with: tamp run DECK --restart CHECKPOINT --out NEWDIR)");
-    return 1;
-  } catch (const std::runtime_error& e) {  // a result file could not be written (a full disk)
-    tamp::log::error("writing results failed in stage " + std::to_string(seq.next_stage()) + ": " + e.what() +
-                     "; last good checkpoint: " +
-                     (seq.last_checkpoint().empty() ? std::string("none") : seq.last_checkpoint()));
-    return 1;
-  }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (g_interrupted) {
-    tamp::log::error("interrupted (Ctrl-C) in stage " + std::to_string(seq.next_stage()) + "; checkpoint " +
-                     seq.last_checkpoint() + " (resume with: tamp run DECK --restart " + seq.last_checkpoint() +
-                     " --out NEWDIR)");
-    return 1;
-  }
-  std::ostringstream msg;
-  msg << (done ? "finished: " : "stopped after stage " + std::to_string(seq.next_stage() - 1) + ": ") << sim.steps()
-      << " steps, t = " << sim.time() << " s, " << sim.particle_count() << " particles, wall " << fmt("%.1f", wall)
-      << " s this run; results in " << out;
-  tamp::log::info(msg.str());
-  return 0;
 }
 
 // A model must fit in this machine's memory: the particle count of the deck (counted before
@@ -260,106 +222,38 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
 
   Simulation sim(cfg);
   sim.set_profiling(profile);
+  // One run loop for both kinds of run (drivers/RunLoop.hpp): the stage sequence of the
+  // deck's [schedule], or one stage of dynamics.
+  std::unique_ptr<tamp::Run> run;
   if (cfg.schedule.enabled) {
     if (forward) {
       tamp::log::set_level(tamp::log::Level::Quiet);  // errors still reach stderr
     } else {
       print_plan(cfg, sim, std::cerr);
     }
-    const int rc = run_sequence(cfg, sim, out, restart.empty() ? nullptr : &resume, stop_after, !forward);
-    if (profile) write_profile(out, sim);
-    return rc;
+    auto seq = std::make_unique<tamp::DropSequence>(sim, cfg, out);
+    seq->set_stage_files(!forward);
+    seq->set_stop_after(stop_after);
+    if (!restart.empty()) {
+      seq->restore(resume);
+      tamp::log::info("restarted at stage " + std::to_string(seq->next_stage()) + " of " +
+                      std::to_string(seq->stages().size()) + ", t = " + std::to_string(sim.time()) + " s");
+    }
+    run = std::move(seq);
+  } else {
+    if (stop_after >= 0) throw std::invalid_argument("--stop-after-stage needs a deck with a [schedule]");
+    if (!restart.empty()) {
+      sim.load_state(resume);
+      tamp::log::info("restarted from " + restart + " at t = " + std::to_string(sim.time()) + " s, step " +
+                      std::to_string(sim.steps()));
+    }
+    print_plan(cfg, sim, std::cerr);
+    run = std::make_unique<tamp::PlainRun>(sim, cfg, out);
   }
-  if (stop_after >= 0) throw std::invalid_argument("--stop-after-stage needs a deck with a [schedule]");
-  if (!restart.empty()) {
-    sim.load_state(resume);
-    tamp::log::info("restarted from " + restart + " at t = " + std::to_string(sim.time()) + " s, step " +
-                    std::to_string(sim.steps()));
-  }
-  print_plan(cfg, sim, std::cerr);
-  XdmfSeries series(out + "/particles.xdmf");
-  const std::string checkpoint_path = out + "/checkpoint.h5";
-  double checkpoint_time = -1;
-  // The restartable state, written with every snapshot: the last good state on failure.
-  auto write_checkpoint = [&]() {
-    tamp::write_checkpoint_h5(checkpoint_path, sim.save_state());
-    checkpoint_time = sim.time();
-  };
-  int n_snap = 0;
-  long last_snapshot_step = -1;
-  std::vector<std::vector<double>> energy_rows;
-  auto write_energy = [&]() {
-    write_csv(out + "/energy.csv", {"time_s", "kinetic_J", "internal_J", "potential_J", "total_J"}, energy_rows);
-  };
-  // A snapshot (and the energy table so far), unless this step already has one.
-  auto write_snapshot = [&]() {
-    if (sim.steps() == last_snapshot_step) return;
-    last_snapshot_step = sim.steps();
-    char name[64];
-    std::snprintf(name, sizeof name, "snapshot_%05d.h5", n_snap++);
-    ParticleSnapshot s = sim.snapshot();
-    write_snapshot_h5(out + "/" + name, s);
-    series.add(name, s);
-    series.write();
-    write_energy();
-    write_checkpoint();
-  };
-  auto record_energy = [&]() {
-    Energies e = sim.energies();
-    energy_rows.push_back({sim.time(), e.kinetic, e.internal, e.potential, e.total()});
-  };
-  record_energy();
-  write_snapshot();
-
   std::signal(SIGINT, on_sigint);
-  const auto t0 = std::chrono::steady_clock::now();
-  auto last_progress = t0;
-  double next_output = cfg.run.output_interval > 0 ? cfg.run.output_interval : 1e300;
-  while (next_output <= sim.time()) next_output += cfg.run.output_interval;  // after a restart
-  const long energy_every = 50;
-  std::string failure;
-  try {
-    sim.advance_to(cfg.run.end_time, [&]() {
-      if (sim.steps() % energy_every == 0) record_energy();
-      if (sim.time() >= next_output) {
-        write_snapshot();
-        next_output += cfg.run.output_interval;
-      }
-      const auto now = std::chrono::steady_clock::now();
-      const double since = std::chrono::duration<double>(now - last_progress).count();
-      if (since >= cfg.run.progress_interval) {
-        const double wall = std::chrono::duration<double>(now - t0).count();
-        const double rate = sim.steps() / wall;
-        const double left = (cfg.run.end_time - sim.time()) / sim.last_dt() / rate;
-        std::fprintf(stderr, "[tamp] stage dynamics | t = %.5f s of %.5f | step %ld | %.0f steps/s | %.0f s left\n",
-                     sim.time(), cfg.run.end_time, sim.steps(), rate, left);
-        last_progress = now;
-      }
-      return !g_interrupted.load();
-    });
-  } catch (const RunFailure& e) {
-    failure = e.what();
-  }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  record_energy();
-  write_energy();
-  if (!failure.empty()) {
-    tamp::log::error("run failed: " + failure + "; last good state (t = " + std::to_string(checkpoint_time) +
-                     " s) in " + checkpoint_path + " (resume with --restart " + checkpoint_path + " --out NEWDIR)");
-    return 1;
-  }
-  write_snapshot();
-  std::ostringstream done;
-  done << "finished: " << sim.steps() << " steps, t = " << sim.time() << " s, wall " << fmt("%.2f", wall)
-       << " s, " << fmt("%.3g", sim.particle_count() * double(sim.steps()) / wall) << " particle-steps/s";
-  tamp::log::info(done.str());
+  const int rc = tamp::run_to_end(*run, [] { return !g_interrupted.load(); });
   if (profile) write_profile(out, sim);
-  if (g_interrupted) {
-    tamp::log::error("interrupted (Ctrl-C) at t = " + std::to_string(sim.time()) + " s; checkpoint " + checkpoint_path +
-                     " (resume with: tamp run DECK --restart " + checkpoint_path + " --out NEWDIR)");
-    return 1;
-  }
-  return 0;
+  return rc;
 }
 
 std::vector<std::string> split_list(const std::string& s) {

@@ -37,7 +37,7 @@ enum ParticleFlag : int {
   X(a, double, 2, 0.0, Saved, "acceleration, m/s2")                                                          \
   X(a_ext, double, 2, 0.0, Saved, "external acceleration (surface tractions), m/s2")                         \
   X(v_prescribed, double, 2, 0.0, Saved, "velocity of FLAG_DRIVEN particles, m/s")                           \
-  X(x_ref, double, 2, 0.0, NotSaved, "position at the last neighbour-list build, m")                         \
+  X(x_ref, double, 2, 0.0, SavedOptional, "position at the last neighbour-list build, m (a restart rebuilds the list there)") \
   X(traction0, double, 2, 0.0, Saved, "static traction on non-reflecting boundary particles, Pa")            \
   X(x_hold, double, 2, 0.0, SavedOptional, "their position when that traction was recorded, m")              \
   X(mass, double, 1, 0.0, Saved, "ring mass (the whole ring of revolution), kg")                             \

@@ -623,8 +623,10 @@ void Simulation::rebuild_lists() {
                        PairKernelFactors(particles_, neighbours_, pair_gradient_factor_, sph_.h));
 }
 
+// The state that continues the run exactly (docs/output.md, "Restarts"). Saving changes
+// nothing in the run: the neighbour list is not rebuilt here; the checkpoint holds where
+// it was built (x_ref), and load_state rebuilds it there.
 Checkpoint Simulation::save_state() {
-  rebuild_lists();
   const Particles& P = particles_;
   const int n = P.n_real;
   Checkpoint c;
@@ -676,6 +678,11 @@ Checkpoint Simulation::save_state() {
     c.scalars["fem_time"] = fem_->time();
     c.scalars["fem_steps"] = static_cast<double>(fem_->steps());
     c.scalars["fem_last_dt"] = fem_->last_dt();
+    // where the tie particles stood at the last list build (the rows after the real ones)
+    const auto ties = Kokkos::subview(particles_.x_ref, std::make_pair(n, n + particles_.n_tie), Kokkos::ALL);
+    ViewN<double, 2> tie_ref("tamp::tie_x_ref", particles_.n_tie);
+    Kokkos::deep_copy(tie_ref, ties);
+    put_rows(tie_ref, particles_.n_tie, c.reals["tie_x_ref"]);
   }
   return c;
 }
@@ -783,10 +790,44 @@ void Simulation::load_state(const Checkpoint& c) {
   } else if (c.reals.count("fem_x")) {
     throw std::invalid_argument("checkpoint holds elements ([fem]); this deck has none");
   }
-  // pair quantities of the restored state; the stored accelerations are kept (they were
-  // computed with the half-step velocities, which a full-step state cannot reproduce)
-  rebuild_lists();
+  // The neighbour list as the saved run had it: built where the particles stood at its last
+  // build (x_ref; a checkpoint from before x_ref was saved: here). The same ghosts and pairs
+  // in the same order, so the restarted run sums as the saved one would have. The pair
+  // quantities of the restored state follow; the stored accelerations are kept (they were
+  // computed with the half-step velocities, which a full-step state cannot reproduce).
+  {
+    const auto reals = std::make_pair(0, n_new), ties = std::make_pair(n_new, n_new + P.n_tie);
+    if (!c.reals.count("x_ref"))
+      Kokkos::deep_copy(Kokkos::subview(P.x_ref, reals, Kokkos::ALL), Kokkos::subview(P.x, reals, Kokkos::ALL));
+    if (P.n_tie > 0) {
+      if (c.reals.count("tie_x_ref")) {
+        ViewN<double, 2> tie_ref("tamp::tie_x_ref", P.n_tie);
+        get_rows(real("tie_x_ref"), "tie_x_ref", tie_ref, P.n_tie);
+        Kokkos::deep_copy(Kokkos::subview(P.x_ref, ties, Kokkos::ALL), tie_ref);
+      } else {
+        Kokkos::deep_copy(Kokkos::subview(P.x_ref, ties, Kokkos::ALL), Kokkos::subview(P.x, ties, Kokkos::ALL));
+      }
+    }
+  }
+  rebuild_lists_at_reference();
   update_pair_stress();
+}
+
+// The ghosts and the neighbour list built at x_ref (for a restart), then the particles back
+// at x: what refresh_neighbours built when they stood there.
+void Simulation::rebuild_lists_at_reference() {
+  Particles& P = particles_;
+  const int m = P.n_real + P.n_tie;
+  const auto rows = std::make_pair(0, m);
+  ViewN<double, 2> now("tamp::x_now", m);
+  Kokkos::deep_copy(now, Kokkos::subview(P.x, rows, Kokkos::ALL));
+  Kokkos::deep_copy(Kokkos::subview(P.x, rows, Kokkos::ALL), Kokkos::subview(P.x_ref, rows, Kokkos::ALL));
+  refresh_neighbours(true);  // copies x (= x_ref) into x_ref: unchanged
+  Kokkos::deep_copy(Kokkos::subview(P.x, rows, Kokkos::ALL), now);
+  ghosts_.sync_kinematics(P);
+  ensure_pair_storage();
+  Kokkos::parallel_for("tamp::sph::pair_kernel", Kokkos::RangePolicy<ExecSpace>(0, P.n_real),
+                       PairKernelFactors(P, neighbours_, pair_gradient_factor_, sph_.h));
 }
 
 void Simulation::refresh_planar_mass() {

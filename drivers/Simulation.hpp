@@ -204,6 +204,7 @@ class Simulation {
   void build_particles();
   void refresh_neighbours(bool force);
   void rebuild_lists();  // forced neighbour rebuild + pair kernel factors
+  void rebuild_lists_at_reference();  // the same, as built at x_ref (a restart)
   void compute_acceleration();
   void ensure_pair_storage();
   void update_pair_stress();

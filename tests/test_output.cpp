@@ -332,3 +332,106 @@ TEST_CASE("Output: a result folder that cannot be created is one error line and 
   CHECK_THAT(errors[0], Catch::Contains((dir / "file" / "out").string()));
   fs::remove_all(dir);
 }
+
+namespace {
+
+// The rows of a CSV file without the columns named in `skip` (wall-clock columns).
+std::vector<std::vector<std::string>> csv_rows(const std::string& path, const std::vector<std::string>& skip) {
+  std::ifstream in(path);
+  std::vector<std::vector<std::string>> rows;
+  std::vector<bool> keep;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    if (keep.empty())
+      for (const auto& c : cells) keep.push_back(std::find(skip.begin(), skip.end(), c) == skip.end());
+    std::vector<std::string> kept;
+    for (size_t k = 0; k < cells.size(); ++k)
+      if (k < keep.size() && keep[k]) kept.push_back(cells[k]);
+    rows.push_back(kept);
+  }
+  return rows;
+}
+
+// Runs `tamp run deck --out out`, interrupts it with SIGINT after `after_s` seconds of wall
+// time; returns the exit status and the log.
+int interrupted_run(const std::string& deck, const std::string& out, const std::string& log, double after_s) {
+  const std::string cmd = "bash -c '" + std::string(TAMP_BINARY) + " run " + deck + " --out " + out + " > " + log +
+                          " 2>&1 & pid=$!; sleep " + std::to_string(after_s) + "; kill -INT $pid; wait $pid'";
+  return std::system(cmd.c_str());
+}
+
+}  // namespace
+
+TEST_CASE("Output: Ctrl-C ends a run with a checkpoint and one line, and the run resumes from it to the same answer",
+          "[output]") {
+  // Both kinds of run go through the one run loop (drivers/RunLoop.hpp): a drop sequence
+  // (the CI drop scenario, about 10 s) and a plain run (the same model without pounder and
+  // schedule, 0.25 s of settling). Each is interrupted with SIGINT after 2 s of wall time.
+  // Expected: exit code 1, exactly one error line "interrupted (Ctrl-C) ... checkpoint PATH",
+  // PATH readable, and the run resumed from it ends with exit code 0 and the uninterrupted
+  // run's table (blows.csv without its wall-clock column; the plain run's last energy row)
+  // bit for bit: every sum is in a fixed order and the checkpoint holds the whole state.
+  const fs::path dir = fs::temp_directory_path() / "tamp-test-ctrl-c";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string sequence_deck = std::string(TAMP_SOURCE_DIR) + "/examples/ci-drop.toml";
+  const std::string plain_deck = (dir / "plain.toml").string();
+  {
+    std::ifstream in(sequence_deck);
+    std::ofstream out(plain_deck);
+    for (std::string line; std::getline(in, line);) {
+      if (line.rfind("[pounder]", 0) == 0) break;  // the model only: no pounder, no schedule
+      out << line << "\n";
+      if (line == "[run]") out << "end_time = 0.25\noutput_interval = 0.05\n";
+    }
+  }
+  struct Kind {
+    std::string name, deck, table;
+    bool last_row_only;
+  };
+  for (const Kind& kind : {Kind{"sequence", sequence_deck, "blows.csv", false}, Kind{"plain", plain_deck, "energy.csv", true}}) {
+    INFO(kind.name << " run");
+    const std::string ref = (dir / (kind.name + "-ref")).string(), cut = (dir / (kind.name + "-cut")).string();
+    const std::string resumed = (dir / (kind.name + "-resumed")).string(), log = (dir / (kind.name + ".log")).string();
+    const int ref_status = std::system((std::string(TAMP_BINARY) + " run " + kind.deck + " --out " + ref + " > /dev/null 2>&1").c_str());
+    REQUIRE(WIFEXITED(ref_status));
+    REQUIRE(WEXITSTATUS(ref_status) == 0);
+
+    const int status = interrupted_run(kind.deck, cut, log, 2.0);
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 1);
+    std::ifstream in(log);
+    std::vector<std::string> errors;
+    for (std::string line; std::getline(in, line);)
+      if (line.find("error") != std::string::npos) errors.push_back(line);
+    REQUIRE(errors.size() == 1);
+    INFO(errors[0]);
+    CHECK_THAT(errors[0], Catch::Contains("interrupted (Ctrl-C)"));
+    const std::string tag = "; checkpoint ";
+    const auto at = errors[0].find(tag), end = errors[0].find(" (resume with");
+    REQUIRE(at != std::string::npos);
+    REQUIRE(end != std::string::npos);
+    const std::string checkpoint = errors[0].substr(at + tag.size(), end - at - tag.size());
+    CHECK_NOTHROW(tamp::read_checkpoint_h5(checkpoint));
+
+    const int resume_status = std::system((std::string(TAMP_BINARY) + " run " + kind.deck + " --out " + resumed +
+                                           " --restart " + checkpoint + " > /dev/null 2>&1").c_str());
+    REQUIRE(WIFEXITED(resume_status));
+    CHECK(WEXITSTATUS(resume_status) == 0);
+    auto a = csv_rows(ref + "/" + kind.table, {"wall_s"}), b = csv_rows(resumed + "/" + kind.table, {"wall_s"});
+    REQUIRE(!a.empty());
+    REQUIRE(!b.empty());
+    if (kind.last_row_only) {
+      CHECK(a.back() == b.back());
+    } else {
+      CHECK(a == b);
+    }
+    std::printf("[ctrl-c] %s run: interrupted after 2 s, resumed from %s, %s %s\n", kind.name.c_str(),
+                fs::path(checkpoint).filename().string().c_str(), kind.table.c_str(),
+                (kind.last_row_only ? a.back() == b.back() : a == b) ? "identical" : "DIFFERENT");
+  }
+  fs::remove_all(dir);
+}

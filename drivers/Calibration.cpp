@@ -227,6 +227,45 @@ std::string residual_table(const std::vector<Residual>& r) {
   return o.str();
 }
 
+UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double threshold) {
+  UnexplainedResidual u;
+  u.threshold = threshold;
+  u.error = rms(r);
+  u.remains = u.error > threshold;
+  if (!u.remains) return u;
+  for (const Residual& x : r) {
+    if (!(std::fabs(x.normalised) > threshold)) continue;
+    auto g = std::find_if(u.groups.begin(), u.groups.end(), [&](const UnexplainedGroup& e) { return e.quantity == x.obs->quantity; });
+    if (g == u.groups.end()) g = u.groups.insert(u.groups.end(), UnexplainedGroup{x.obs->quantity, {}, 0, 0, 0.0});
+    g->blows.push_back(x.obs->blow);
+    (x.normalised > 0 ? g->above : g->below) += 1;
+    if (std::fabs(x.normalised) > std::fabs(g->largest)) g->largest = x.normalised;
+  }
+  return u;
+}
+
+std::string UnexplainedResidual::text() const {
+  if (!remains)
+    return "the error " + fmt_g(error, "%.3f") + " is within " + fmt_g(threshold, "%g") +
+           ": no residual is left that the catalogue does not explain";
+  std::string s = "a residual remains that the catalogue does not explain (error " + fmt_g(error, "%.3f") + " > " +
+                  fmt_g(threshold, "%g") + ")";
+  for (size_t k = 0; k < groups.size(); ++k) {
+    const UnexplainedGroup& g = groups[k];
+    s += (k ? "; " : ": ") + g.quantity;
+    if (g.blows.size() > 1 || g.blows.front() > 0) {
+      s += " (blow";
+      for (size_t b = 0; b < g.blows.size(); ++b) s += (b ? ", " : " ") + std::to_string(g.blows[b]);
+      s += ")";
+    }
+    const int n = g.above + g.below;
+    s += g.below == 0 ? ", model above the measurement" : g.above == 0 ? ", model below the measurement"
+         : ", model above in " + std::to_string(g.above) + " and below in " + std::to_string(g.below) + " of " + std::to_string(n);
+    s += ", largest residual " + fmt_g(g.largest, "%+.2f");
+  }
+  return s;
+}
+
 std::string residuals_json(const std::vector<Residual>& r) {
   nlohmann::ordered_json j;
   j["error"] = rms(r);
@@ -821,6 +860,19 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   js["error_before"] = baseline.error;
   js["error_after"] = chosen->error;
   js["bic_margin"] = opt.bic_margin;
+  const UnexplainedResidual left = unexplained_residual(chosen->residuals);
+  {
+    nlohmann::ordered_json u;
+    u["remains"] = left.remains;
+    u["threshold"] = left.threshold;
+    u["error_after"] = left.error;
+    u["pattern"] = nlohmann::ordered_json::array();
+    for (const UnexplainedGroup& g : left.groups)
+      u["pattern"].push_back({{"quantity", g.quantity}, {"blows", g.blows}, {"model_above", g.above},
+                              {"model_below", g.below}, {"largest_residual", g.largest}});
+    u["text"] = left.text();
+    js["unexplained_residual"] = u;
+  }
   js["forward_runs"] = {{"run", runner.runs()},
                         {"from_cache", runner.cache_hits()},
                         {"failed", runner.failures()},
@@ -857,8 +909,10 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
      << fmt_g(chosen->error, "%.3f") << ".\n\nThe heave / column volume ratio is the volume balance: an undrained "
      << "(incompressible) soil heaves by the volume of the aggregate pushed into it (ratio near 1); a soil that "
      << "compacts heaves less.\n\n## Residuals after the selected fit\n\n"
-     << residual_table(chosen->residuals) << "\n## Traces of the baseline fit\n\n" << trace_report(baseline.outputs)
+     << residual_table(chosen->residuals) << "\n## What the catalogue does not explain\n\n" << left.text()
+     << ".\n\n## Traces of the baseline fit\n\n" << trace_report(baseline.outputs)
      << "## Traces of the selected fit\n\n" << trace_report(chosen->outputs);
+  if (left.remains) log::warn("diagnose: " + left.text());
   log::info("diagnose: selected '" + selected + "', error before " + fmt_g(baseline.error, "%.3f") + ", after " +
             fmt_g(chosen->error, "%.3f") + "; " + std::to_string(runner.runs()) + " forward runs (" +
             std::to_string(runner.cache_hits()) + " more from the cache, " + std::to_string(runner.failures()) +

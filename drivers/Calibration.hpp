@@ -41,6 +41,24 @@ double rms(const std::vector<Residual>& r);  // RMS of the normalised residuals
 std::string residual_table(const std::vector<Residual>& r);  // Markdown
 std::string residuals_json(const std::vector<Residual>& r);
 
+// What a fit leaves unexplained (docs/closing-the-loop.md, "A residual the catalogue does not
+// explain"): when its error (RMS of the normalised residuals) stays above `threshold`, the
+// observations outside `threshold` uncertainties, grouped by quantity in the order of the data
+// file, with the sign of the misfit (model above or below the measurement).
+struct UnexplainedGroup {
+  std::string quantity;
+  std::vector<int> blows;   // the observations' blows (0: a summary quantity)
+  int above = 0, below = 0; // model above / below the measurement
+  double largest = 0;       // the normalised residual of largest magnitude
+};
+struct UnexplainedResidual {
+  bool remains = false;  // error > threshold
+  double error = 0, threshold = 2;
+  std::vector<UnexplainedGroup> groups;  // empty unless remains
+  std::string text() const;              // one sentence for the report and the log
+};
+UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double threshold = 2.0);
+
 struct FitResult {
   std::vector<std::string> names;
   std::vector<double> values, sigmas;  // best fit and its 1-sigma (linearised) uncertainty

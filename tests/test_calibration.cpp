@@ -300,3 +300,49 @@ TEST_CASE("Loop: a calibration shared by 2 MPI ranks gives the answer of one pro
               json_string(d + "/two/calibration.json", "runs").c_str());
 }
 #endif
+
+TEST_CASE("Loop: a residual the catalogue does not explain is reported with its pattern", "[loop]") {
+  // The definition (docs/closing-the-loop.md): error = RMS of the normalised residuals; above
+  // 2 a residual remains, and the observations beyond 2 uncertainties are listed by quantity
+  // with the sign of the misfit. Residuals chosen by hand: three crater depths at -3, -2.5 and
+  // +0.5 and one uplift at +4 give error sqrt((9 + 6.25 + 0.25 + 16) / 4) = 2.806; the same
+  // quantities at -1.5, +1, +0.5 and +2 give 1.346 and nothing to report.
+  std::vector<tamp::Observation> obs(4);
+  for (int k = 0; k < 3; ++k) {
+    obs[k].quantity = "crater_depth_m";
+    obs[k].blow = k + 1;
+    obs[k].sigma = 0.01;
+  }
+  obs[3].quantity = "uplift_m";
+  obs[3].sigma = 0.002;
+  auto make = [&](const std::vector<double>& normalised) {
+    std::vector<tamp::Residual> r(obs.size());
+    for (size_t k = 0; k < obs.size(); ++k) {
+      r[k].obs = &obs[k];
+      r[k].normalised = normalised[k];
+      r[k].model = obs[k].value + normalised[k] * obs[k].sigma;
+    }
+    return r;
+  };
+  const tamp::UnexplainedResidual u = tamp::unexplained_residual(make({-3.0, -2.5, 0.5, 4.0}));
+  CHECK(u.remains);
+  CHECK(u.error == Approx(std::sqrt(31.5 / 4.0)).epsilon(1e-14));
+  REQUIRE(u.groups.size() == 2);
+  CHECK(u.groups[0].quantity == "crater_depth_m");
+  CHECK(u.groups[0].blows == std::vector<int>{1, 2});  // blow 3 is within 2 uncertainties
+  CHECK(u.groups[0].below == 2);
+  CHECK(u.groups[0].above == 0);
+  CHECK(u.groups[0].largest == -3.0);
+  CHECK(u.groups[1].quantity == "uplift_m");
+  CHECK(u.groups[1].above == 1);
+  CHECK(u.groups[1].largest == 4.0);
+  INFO(u.text());
+  CHECK_THAT(u.text(), Catch::Contains("crater_depth_m (blow 1, 2), model below the measurement, largest residual -3.00"));
+  CHECK_THAT(u.text(), Catch::Contains("uplift_m, model above the measurement, largest residual +4.00"));
+
+  const tamp::UnexplainedResidual ok = tamp::unexplained_residual(make({-1.5, 1.0, 0.5, 2.0}));
+  CHECK_FALSE(ok.remains);
+  CHECK(ok.groups.empty());
+  CHECK(ok.error == Approx(std::sqrt(7.5 / 4.0)).epsilon(1e-14));
+  std::printf("[loop] unexplained residual: %s\n", u.text().c_str());
+}

@@ -112,11 +112,10 @@ struct FreeSite {
 // The real particles binned once; each measurement is a few kernels over them.
 class ParticleSurvey {
  public:
-  // Bins the first P.n_real particles in cells of 1.5 dp (the reach of the searches below).
+  // The first P.n_real particles; the searches around particles or points bin them in cells
+  // of 1.5 dp (their reach) once, at the first that needs it.
   ParticleSurvey(const Particles& P, double dp)
-      : x_(P.x), mass_(P.mass), rho_(P.rho), material_(P.material), n_(P.n_real), dp_(dp) {
-    grid_ = cells_.bin(x_, n_, 1.5 * dp);
-  }
+      : x_(P.x), mass_(P.mass), rho_(P.rho), material_(P.material), n_(P.n_real), dp_(dp) {}
 
   int count() const { return n_; }
 
@@ -132,7 +131,7 @@ class ParticleSurvey {
     if (n_ > 0) {
       View1<int> count("tamp::survey::count", n_);
       Kokkos::parallel_for("tamp::survey::count_near", Kokkos::RangePolicy<ExecSpace>(0, n_),
-                           detail::CountNear{grid_, material_, count, skip_material});
+                           detail::CountNear{grid(), material_, count, skip_material});
       Kokkos::parallel_for("tamp::survey::surface", Kokkos::RangePolicy<ExecSpace>(0, n_),
                            detail::SurfaceTop{x_, material_, count, top, skip_material, min_neighbours, columns, dp_});
     }
@@ -246,7 +245,7 @@ class ParticleSurvey {
     for (int c = 0; c < np; ++c) { h(c, 0) = points[c][0]; h(c, 1) = points[c][1]; }
     Kokkos::deep_copy(point, h);
     Kokkos::parallel_for("tamp::survey::occupied", Kokkos::RangePolicy<ExecSpace>(0, np),
-                         detail::Occupied{grid_, point, flag, radius * radius});
+                         detail::Occupied{grid(), point, flag, radius * radius});
     const auto hf = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flag);
     return std::vector<int>(hf.data(), hf.data() + np);
   }
@@ -273,12 +272,19 @@ class ParticleSurvey {
       Kokkos::parallel_for("tamp::survey::column_top", Kokkos::RangePolicy<ExecSpace>(0, n_),
                            detail::ColumnTop{x_, column_top, columns, dp_});
     Kokkos::parallel_for("tamp::survey::free_sites", Kokkos::RangePolicy<ExecSpace>(0, nc),
-                         detail::FreeSite{grid_, column, z, column_top, flag, clearance * clearance, dp_});
+                         detail::FreeSite{grid(), column, z, column_top, flag, clearance * clearance, dp_});
     const auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), flag);
     return std::vector<int>(h.data(), h.data() + nc);
   }
 
  private:
+  const CellGrid& grid() const {
+    if (!binned_) {
+      grid_ = cells_.bin(x_, n_, 1.5 * dp_);
+      binned_ = true;
+    }
+    return grid_;
+  }
   static std::vector<double> to_host(const View1<double>& v) {
     const auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
     return std::vector<double>(h.data(), h.data() + h.extent(0));
@@ -289,8 +295,9 @@ class ParticleSurvey {
   View1<int> material_;
   int n_;
   double dp_;
-  NeighbourList cells_;
-  CellGrid grid_;
+  mutable NeighbourList cells_;
+  mutable CellGrid grid_;
+  mutable bool binned_ = false;
 };
 
 }  // namespace tamp

@@ -20,6 +20,15 @@ using tamp::ParticleSnapshot;
 
 namespace {
 
+// The lines of a run's log that report an error (or, with also, that name that word too).
+std::vector<std::string> error_lines(const std::string& log, const char* also = nullptr) {
+  std::ifstream in(log);
+  std::vector<std::string> errors;
+  for (std::string line; std::getline(in, line);)
+    if (line.find("error") != std::string::npos || (also && line.find(also) != std::string::npos)) errors.push_back(line);
+  return errors;
+}
+
 fs::path temp_dir(const std::string& tag) {
   std::random_device rd;
   auto dir = fs::temp_directory_path() / ("tamp_" + tag + "_" + std::to_string(rd()));
@@ -246,10 +255,7 @@ TEST_CASE("Output: a result file that cannot be written ends the run with one li
   const int status = std::system(cmd.c_str());
   REQUIRE(WIFEXITED(status));
   CHECK(WEXITSTATUS(status) == 1);
-  std::ifstream in(log);
-  std::vector<std::string> errors;
-  for (std::string line; std::getline(in, line);)
-    if (line.find("error") != std::string::npos || line.find("HDF5") != std::string::npos) errors.push_back(line);
+  const std::vector<std::string> errors = error_lines(log, "HDF5");
   REQUIRE(errors.size() == 1);
   INFO(errors[0]);
   CHECK_THAT(errors[0], Catch::Contains(".h5: cannot close the HDF5 file (File too large)"));
@@ -321,10 +327,7 @@ TEST_CASE("Output: a result folder that cannot be created is one error line and 
                           "/examples/ci-drop.toml --out " + (dir / "file" / "out").string() + " > " + log + " 2>&1";
   const int status = std::system(cmd.c_str());
   REQUIRE(WIFEXITED(status));
-  std::ifstream in(log);
-  std::vector<std::string> errors;
-  for (std::string line; std::getline(in, line);)
-    if (line.find("error") != std::string::npos) errors.push_back(line);
+  const std::vector<std::string> errors = error_lines(log);
   INFO("exit code " << WEXITSTATUS(status));
   REQUIRE(errors.size() == 1);
   INFO(errors[0]);
@@ -416,10 +419,7 @@ TEST_CASE("Output: Ctrl-C ends a run with a checkpoint and one line, and the run
     const int status = interrupted_run(kind.deck, cut, log, 2.0);
     REQUIRE(WIFEXITED(status));
     CHECK(WEXITSTATUS(status) == 1);
-    std::ifstream in(log);
-    std::vector<std::string> errors;
-    for (std::string line; std::getline(in, line);)
-      if (line.find("error") != std::string::npos) errors.push_back(line);
+    const std::vector<std::string> errors = error_lines(log);
     REQUIRE(errors.size() == 1);
     INFO(errors[0]);
     CHECK_THAT(errors[0], Catch::Contains("interrupted (Ctrl-C)"));

@@ -146,7 +146,6 @@ void Simulation::build_materials() {
 // Particles on a regular grid of spacing dp in each block (centres at half spacings), ring
 // mass m = rho0 * 2 pi r * dp^2. One kernel launch per block.
 void Simulation::build_particles() {
-  const double dp = config_.sph.spacing;
   Particles& P = particles_;
   int thin = -1;
   const std::vector<BlockParticles> count = particle_grid(config_, &thin);  // core/ParticleGrid.hpp
@@ -172,7 +171,7 @@ void Simulation::build_particles() {
   int first = 0;
   for (size_t k = 0; k < count.size(); ++k) {  // kernels/ParticleGenerator.hpp, one launch per block
     const int nr = static_cast<int>(count[k].nr), nz = static_cast<int>(count[k].nz);
-    const FillBlock fill(P, first, nr, nz, mats[k], count[k].spec, materials_host_[mats[k]].density, dp);
+    const FillBlock fill(P, first, nr, nz, mats[k], count[k].spec, materials_host_[mats[k]].density, config_.sph);
     Kokkos::parallel_for("tamp::build_block", Kokkos::RangePolicy<ExecSpace>(0, fill.count()), fill);
     first += nr * nz;
   }
@@ -298,7 +297,7 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   P.fill_new(n0, n1);  // every field at a new particle's value (core/Particles.hpp), then:
   double added = 0;
   Kokkos::parallel_reduce("tamp::add_particles", Kokkos::RangePolicy<ExecSpace>(0, count),
-                          PlaceNewParticles(P, n0, hr_dev, hz_dev, hm_dev, materials_, config_.sph.spacing), added);
+                          PlaceNewParticles(P, n0, hr_dev, hz_dev, hm_dev, materials_, config_.sph), added);
   P.n_real = n1;
   P.n_total = n1 + P.n_tie;
   if (fem_) {
@@ -399,7 +398,7 @@ void Simulation::drift(double dt) {
     Timed t(*this, &StepProfile::kick_drift);
     body_.drift(dt);
     Kokkos::parallel_for("tamp::drift", real_particles(),
-                         Drift(particles_, ghosts_.planes, non_reflecting_, dt, planar_mass_floor(config_.sph.spacing)));
+                         Drift(particles_, ghosts_.planes, non_reflecting_, dt, planar_mass_floor(config_.sph)));
   }
   drift_elements(dt);
 }
@@ -831,7 +830,7 @@ void Simulation::rebuild_lists_at_reference() {
 }
 
 void Simulation::refresh_planar_mass() {
-  Kokkos::parallel_for("tamp::planar_mass", real_particles(), PlanarMass(particles_, config_.sph.spacing));
+  Kokkos::parallel_for("tamp::planar_mass", real_particles(), PlanarMass(particles_, config_.sph));
 }
 
 ParticleSnapshot Simulation::snapshot() const {
@@ -894,7 +893,7 @@ void Simulation::sync_tie_kinematics() {
   Particles& P = particles_;
   const fem::FemMesh& mesh = fem_->mesh();
   Kokkos::parallel_for("tamp::tie::kinematics", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
-                       SyncTieKinematics(P, tie_, mesh, planar_mass_floor(config_.sph.spacing)));
+                       SyncTieKinematics(P, tie_, mesh, planar_mass_floor(config_.sph)));
 }
 
 void Simulation::sync_tie_stress() {

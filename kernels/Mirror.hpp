@@ -112,6 +112,7 @@ inline void MirrorGhosts::sync_range_kinematics(Particles& p, const Range& rg) c
   auto mat = p.material; auto flags = p.flags; auto src = p.ghost_source;
   {
     const MirrorPlane pl = planes.plane[rg.plane];
+    const bool across_axis = pl.axis == 0 && pl.position == 0.0;
     Kokkos::parallel_for(
         "tamp::mirror::kinematics", Kokkos::RangePolicy<ExecSpace>(rg.begin, rg.end),
         KOKKOS_LAMBDA(int g) {
@@ -123,10 +124,13 @@ inline void MirrorGhosts::sync_range_kinematics(Particles& p, const Range& rg) c
           v(g, t) = v(s, t);
           rho(g) = rho(s);
           mp(g) = mp(s);
-          // Ring mass at the ghost's own (signed) radius: m = 2 pi r mp. Across the axis it
-          // is negative: the areal density eta = 2 pi r rho is odd in r, and the ring-mass
-          // sums need its odd extension to stay consistent at the axis.
-          mass(g) = 2.0 * pi * x(g, 0) * mp(s);
+          // Ring mass. Across the axis, the source's, negated: the areal density
+          // eta = 2 pi r rho is odd in r, and the ring-mass sums need its odd extension to
+          // stay consistent at the axis; across a plane z = const, the source's; across a
+          // plane r = R, the planar mass at the ghost's own radius. (Not 2 pi r mp for the
+          // first two: within the regularised radius of the axis mp = m / (2 pi r~), r~ > r,
+          // and the pair terms would no longer be the conjugates of the strain rates.)
+          mass(g) = across_axis ? -mass(s) : (pl.axis == 1 ? mass(s) : 2.0 * pi * x(g, 0) * mp(s));
           mat(g) = mat(s);
           flags(g) = pl.no_slip ? (flags(s) | FLAG_FIXED_WALL_GHOST) : flags(s);
         });

@@ -17,9 +17,9 @@ struct FillBlock {
   double r_min, z_min, velocity_r, velocity_z, rho0, dp, r_floor;
 
   FillBlock(const Particles& P, int first_in, int nr_in, int nz_in, int mat_in, const BlockSpec& b, double rho0_in,
-            double dp_in)
+            const SphSpec& sph)
       : first(first_in), nr(nr_in), nz(nz_in), mat(mat_in), r_min(b.r_min), z_min(b.z_min),
-        velocity_r(b.velocity_r), velocity_z(b.velocity_z), rho0(rho0_in), dp(dp_in), r_floor(planar_mass_floor(dp_in)) {
+        velocity_r(b.velocity_r), velocity_z(b.velocity_z), rho0(rho0_in), dp(sph.spacing), r_floor(planar_mass_floor(sph)) {
     x = P.x; v = P.v; mass = P.mass; planar_mass = P.planar_mass; rho = P.rho; material = P.material;
   }
   int count() const { return nr * nz; }
@@ -61,9 +61,10 @@ struct PlaceNewParticles {
   int first;
   double dp, r_floor;
   PlaceNewParticles(const Particles& P, int first_in, const View1<double>& r, const View1<double>& z,
-                    const View1<int>& mat, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, double dp_in)
-      : new_r(r), new_z(z), new_material(mat), materials(materials_in), first(first_in), dp(dp_in),
-        r_floor(planar_mass_floor(dp_in)) {
+                    const View1<int>& mat, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in,
+                    const SphSpec& sph)
+      : new_r(r), new_z(z), new_material(mat), materials(materials_in), first(first_in), dp(sph.spacing),
+        r_floor(planar_mass_floor(sph)) {
     x = P.x; x_ref = P.x_ref; mass = P.mass; planar_mass = P.planar_mass; rho = P.rho; material = P.material;
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int k, double& added) const {
@@ -85,7 +86,7 @@ struct PlanarMass {
   ViewN<double, 2> x;
   View1<double> mass, planar_mass;
   double r_floor;
-  PlanarMass(const Particles& P, double dp) : r_floor(planar_mass_floor(dp)) {
+  PlanarMass(const Particles& P, const SphSpec& sph) : r_floor(planar_mass_floor(sph)) {
     x = P.x; mass = P.mass; planar_mass = P.planar_mass;
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const { planar_mass(i) = planar_mass_of(mass(i), x(i, 0), r_floor); }

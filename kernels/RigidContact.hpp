@@ -11,8 +11,8 @@
 //             mu = FD + (FS - FD) exp(-DC |v_t|)  (LS-DYNA's friction law)
 // with c the particle material's P-wave speed: the contact is as stiff as one particle
 // spacing of the soil itself (s = 1), so it keeps the SPH time step stable (omega dt = s^0.5
-// c dt / dp < 1) while the penetration under the pounder's weight stays ~1e-3 dp. The
-// friction is capped at the value that stops relative sliding within one step (stick).
+// c dt / dp < 1) while the penetration under the pounder's weight stays ~1e-3 dp. Below
+// the Coulomb bound (stick) the friction is a tangential dashpot at the rate sqrt(kappa).
 // The reaction on the body is minus the sum of the particle forces (docs/contact.md).
 #pragma once
 #include "core/Material.hpp"

@@ -146,6 +146,11 @@ struct ScheduleSpec {
   double extract_time = 0.01;     // s of damped settling after the pounder is lifted out
   double settle_time = 0.03;      // s of damped settling after a charge
   double tracer_interval = 0.001; // s of simulated time between tracer records
+  // A rebound flight: "followed" step by step (soil undamped, the exact path), or
+  // "ballistic": after flight_relax_time of damped relaxation of the soil, the rest of the
+  // flight is the pounder's free fall, advanced in one jump (docs/drop-sequence.md).
+  std::string flight = "followed";
+  double flight_relax_time = 0.02;  // s of damped soil relaxation before the ballistic jump
 };
 
 // A material point followed through the run (like the paper's Figs. 8 and 10): the

@@ -647,7 +647,7 @@ void read_schedule(const Table& top, Config& cfg) {
   const Table t(top.rep(), *tt, "schedule",
                 {"drop_heights", "backfill_after", "drop_height_from", "ground_level", "relax_time", "damping",
                  "rest_speed", "rest_force_tolerance", "rest_hold", "rest_time", "max_impact_time", "extract_time", "settle_time",
-                 "tracer_interval"});
+                 "tracer_interval", "flight", "flight_relax_time"});
   s.enabled = true;
   s.drop_heights = number_array(t, "drop_heights", gt(0), "m");
   s.backfill_after = increasing_int_array(t, "backfill_after", 1, static_cast<long long>(s.drop_heights.size()));
@@ -666,6 +666,8 @@ void read_schedule(const Table& top, Config& cfg) {
   s.extract_time = number(t, "extract_time", s.extract_time, ge(0), "s");
   s.settle_time = number(t, "settle_time", s.settle_time, ge(0), "s");
   s.tracer_interval = number(t, "tracer_interval", s.tracer_interval, gt(0), "s");
+  s.flight = choice(t, "flight", {"followed", "ballistic"}, "flight mode", s.flight);
+  s.flight_relax_time = number(t, "flight_relax_time", s.flight_relax_time, gt(0), "s");
 }
 
 void read_tracers(const Table& top, Config& cfg) {
@@ -939,6 +941,8 @@ std::string to_toml(const Config& c) {
     o << "extract_time = " << fmt_float(s.extract_time) << "  # s\n";
     o << "settle_time = " << fmt_float(s.settle_time) << "  # s\n";
     o << "tracer_interval = " << fmt_float(s.tracer_interval) << "  # s\n";
+    o << "flight = " << quote(s.flight) << "\n";
+    o << "flight_relax_time = " << fmt_float(s.flight_relax_time) << "  # s\n";
   }
   for (const auto& tr : c.tracers) {
     o << "\n[[tracers]]\n";

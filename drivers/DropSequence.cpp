@@ -52,7 +52,7 @@ const std::vector<BlowColumn>& blow_columns() {
       {"artificial_stress_J", &B::artificial_stress_J},
       {"returned_J", &B::returned_J},             {"residual_J", &B::residual_J},
       {"contact_time_s", &B::contact_time_s},     {"flight_time_s", &B::flight_time_s},
-      {"rest_time_s", &B::rest_time_s}};
+      {"rest_time_s", &B::rest_time_s},           {"ballistic_time_s", &B::ballistic_time_s}};
   return columns;
 }
 
@@ -157,6 +157,8 @@ void DropSequence::begin_impact(const Stage& s) {
   returned_ = 0;
   in_contact_ = 0;
   contact_time_ = flight_time_ = 0;
+  relax_since_ = relaxed_flight_ = -1;
+  ballistic_time_ = 0;
   energy0_ = energy_state();
   BlowRecord& rec = blow_record(s.blow);
   rec.drop_height_m = cfg_.schedule.drop_heights[s.blow - 1];
@@ -223,6 +225,7 @@ bool DropSequence::impact_step() {
     flight_time_ += dt;
   }
   if (z_start_ < 1e299 && first_rebound_open_ > 0) up_max_ = std::max(up_max_, b.v_z);
+  if (sch.flight == "ballistic") ballistic_flight(min_flight);
 
   const bool at_rest = touching && std::fabs(b.v_z) < sch.rest_speed &&
                        std::fabs(lift - weight) < sch.rest_force_tolerance * weight;
@@ -251,6 +254,57 @@ bool DropSequence::impact_step() {
   return true;
 }
 
+// schedule.flight = "ballistic": a rebound flight that would last more than twice
+// flight_relax_time (back to its take-off height, 2 v / g) is not followed step by step.
+// Once the pounder has been clear of every particle for min_flight, the soil relaxes under
+// the schedule's damping for flight_relax_time while the pounder flies on; then the clock
+// jumps over the rest of the flight: the pounder is placed where its free fall meets the
+// soil (a tenth of a spacing above the highest particle under it, as at the drop) with the
+// speed of that fall, and the blow goes on undamped. Its kinetic + potential energy is that
+// of the flight, so the energy account is untouched; the soil's, after the relaxation, is
+// what the damping left (booked as damping work). A particle that reaches the pounder during
+// the relaxation ends it: the flight is then followed.
+void DropSequence::ballistic_flight(double min_flight) {
+  const ScheduleSpec& sch = cfg_.schedule;
+  const RigidBody& b = sim_.body();
+  const double g = sim_.gravity_at(sim_.time());
+  const bool clear = b.contact.touching == 0;
+  if (relax_since_ < 0) {
+    if (clear && out_since_ >= 0 && out_since_ != relaxed_flight_ && sim_.time() - out_since_ >= min_flight &&
+        b.v_z > 0 && 2.0 * b.v_z / g > 2.0 * sch.flight_relax_time) {
+      relax_since_ = sim_.time();
+      relaxed_flight_ = out_since_;
+      sim_.set_damping(sch.damping);
+    }
+    return;
+  }
+  if (!clear) {  // the soil reached the pounder: follow the flight
+    relax_since_ = -1;
+    sim_.set_damping(cfg_.damping);
+    return;
+  }
+  if (sim_.time() - relax_since_ < sch.flight_relax_time) return;
+  relax_since_ = -1;
+  sim_.set_damping(cfg_.damping);
+  const double dp = cfg_.sph.spacing;
+  const double z_land = surface_under_pounder() + 0.5 * dp + 0.1 * dp;
+  const double z = b.z0, v = b.v_z;
+  if (!(z > z_land)) return;  // already down at the soil: follow the landing
+  // z + v tau - g tau^2 / 2 = z_land, the later root; the jump stops at max_impact_time
+  double tau = (v + std::sqrt(v * v + 2.0 * g * (z - z_land))) / g;
+  tau = std::min(tau, std::max(0.0, sch.max_impact_time - (sim_.time() - stage_t0_)));
+  // pounder.csv keeps its rows through the jump (the free fall, no contact force)
+  const double t0 = sim_.time(), blow = stages_[next_stage_].blow;
+  for (double t = next_record_; t < t0 + tau; t += sch.tracer_interval) {
+    const double s = t - t0;
+    pounder_rows_.push_back({t, blow, z + v * s - 0.5 * g * s * s, v - g * s, -g, 0.0});
+  }
+  sim_.skip_time(tau);
+  sim_.place_body(0.0, z + v * tau - 0.5 * g * tau * tau, 0.0, v - g * tau);
+  flight_time_ += tau;
+  ballistic_time_ += tau;
+}
+
 // The blow's record at the end of its impact stage: position, contacts and energy account.
 void DropSequence::end_impact(BlowRecord& rec) {
   const RigidBody& b = sim_.body();
@@ -263,6 +317,7 @@ void DropSequence::end_impact(BlowRecord& rec) {
   rec.returned_J = returned_ + pending_return_;
   rec.contact_time_s = contact_time_;
   rec.flight_time_s = flight_time_;
+  rec.ballistic_time_s = ballistic_time_;
   rec.rest_time_s = phase_ == 1 ? sim_.time() - rest_since_ : 0.0;
   const std::vector<double> e1 = energy_state();
   const std::vector<double>& e0 = energy0_;
@@ -397,6 +452,9 @@ Checkpoint DropSequence::checkpoint() {
   c.scalars["seq_in_contact"] = in_contact_;
   c.scalars["seq_contact_time"] = contact_time_;
   c.scalars["seq_flight_time"] = flight_time_;
+  c.scalars["seq_relax_since"] = relax_since_;
+  c.scalars["seq_relaxed_flight"] = relaxed_flight_;
+  c.scalars["seq_ballistic_time"] = ballistic_time_;
   c.reals["seq_energy0"].values = energy0_;
   for (int k = 0; k < static_cast<int>(Phase::Count); ++k)  // steps, simulated s, wall s
     c.reals["seq_phase_time"].values.insert(c.reals["seq_phase_time"].values.end(),
@@ -460,6 +518,9 @@ void DropSequence::restore(const Checkpoint& c) {
   in_contact_ = opt("seq_in_contact");
   contact_time_ = opt("seq_contact_time");
   flight_time_ = opt("seq_flight_time");
+  relax_since_ = c.scalars.count("seq_relax_since") ? c.scalars.at("seq_relax_since") : -1.0;
+  relaxed_flight_ = c.scalars.count("seq_relaxed_flight") ? c.scalars.at("seq_relaxed_flight") : -1.0;
+  ballistic_time_ = opt("seq_ballistic_time");
   energy0_ = c.reals.count("seq_energy0") ? c.reals.at("seq_energy0").values : std::vector<double>{};
   if (c.reals.count("seq_phase_time")) {  // older checkpoints have none: timing starts at 0
     const auto& v = c.reals.at("seq_phase_time").values;

@@ -54,6 +54,7 @@ struct BlowRecord {
   std::vector<double> plastic_J;       // per deck material: internal - elastic - viscous heat
   // simulated time of the impact stage
   double contact_time_s = 0, flight_time_s = 0, rest_time_s = 0;
+  double ballistic_time_s = 0;         // the part of flight_time_s advanced in ballistic jumps
   double wall_s = 0;                   // wall time of this blow's stages
 };
 
@@ -172,6 +173,10 @@ class DropSequence : public Run {
   double v_in_ = 0, up_max_ = 0, out_since_ = -1, pending_return_ = 0, deepest_z_ = 1e300;
   double contacts_ = 0, first_rebound_open_ = 1, returned_ = 0, in_contact_ = 0;
   double contact_time_ = 0, flight_time_ = 0;
+  // impact, schedule.flight = "ballistic": the damped relaxation of the soil in a flight
+  // (start time, -1 none; out_since_ of the flight it was for) and the time jumped
+  double relax_since_ = -1, relaxed_flight_ = -1, ballistic_time_ = 0;
+  void ballistic_flight(double min_flight);
   std::vector<double> energy0_;  // energy_state() at the placement of the pounder
   double stage_wall_ = 0;    // wall seconds of the current blow so far
   std::vector<BlowRecord> blows_;

@@ -102,6 +102,12 @@ class Simulation {
   void advance_to(double end_time, const std::function<bool()>& on_step = {});
 
   double time() const { return time_; }
+  // Moves the clock on by dt without a step: nothing moves. The drop sequence's ballistic
+  // flight uses it and places the body itself.
+  void skip_time(double dt) {
+    time_ += dt;
+    sph_.gravity = gravity_at(time_);
+  }
   long steps() const { return steps_; }
   double last_dt() const { return dt_; }
   double stable_dt() const;

@@ -240,7 +240,10 @@ bool DropSequence::impact_step() {
   } else {
     rest_since_ = -1;
   }
-  if (t >= sch.max_impact_time) {
+  // At max_impact_time a pounder in flight is followed to its next landing (up to twice
+  // that time), so that the crater depth of a blow that did not come to rest is where the
+  // pounder stands on the soil, not a point of its flight (lab blow 33: 0.33 m/s upward).
+  if (t >= sch.max_impact_time && (touching || t >= 2.0 * sch.max_impact_time)) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
                   "blow %d: the pounder did not come to rest in contact within max_impact_time = %g s "
@@ -256,19 +259,23 @@ bool DropSequence::impact_step() {
 
 // schedule.flight = "ballistic": a rebound flight that would last more than twice
 // flight_relax_time (back to its take-off height, 2 v / g) is not followed step by step.
-// Once the pounder has been clear of every particle for min_flight, the soil relaxes under
+// Once the pounder has been out of contact for min_flight, the soil relaxes under
 // the schedule's damping for flight_relax_time while the pounder flies on; then the clock
 // jumps over the rest of the flight: the pounder is placed where its free fall meets the
 // soil (a tenth of a spacing above the highest particle under it, as at the drop) with the
 // speed of that fall, and the blow goes on undamped. Its kinetic + potential energy is that
 // of the flight, so the energy account is untouched; the soil's, after the relaxation, is
-// what the damping left (booked as damping work). A particle that reaches the pounder during
-// the relaxation ends it: the flight is then followed.
+// what the damping left (booked as damping work). Contact during the relaxation (a force
+// above 1 % of the weight) ends it: the flight is then followed.
 void DropSequence::ballistic_flight(double min_flight) {
   const ScheduleSpec& sch = cfg_.schedule;
   const RigidBody& b = sim_.body();
   const double g = sim_.gravity_at(sim_.time());
-  const bool clear = b.contact.touching == 0;
+  // clear of the soil: the contact force below 1 % of the weight, as for the contact phases
+  // (a grain grazing the barrel's side must not keep a long flight from being jumped; the
+  // landing height is above every particle within the widest radius, so none is overlapped)
+  const double weight = b.mass * cfg_.gravity;
+  const bool clear = !(b.contact.touching > 0 && -b.contact.force_z > 0.01 * weight);
   if (relax_since_ < 0) {
     if (clear && out_since_ >= 0 && out_since_ != relaxed_flight_ && sim_.time() - out_since_ >= min_flight &&
         b.v_z > 0 && 2.0 * b.v_z / g > 2.0 * sch.flight_relax_time) {
@@ -290,9 +297,10 @@ void DropSequence::ballistic_flight(double min_flight) {
   const double z_land = surface_under_pounder() + 0.5 * dp + 0.1 * dp;
   const double z = b.z0, v = b.v_z;
   if (!(z > z_land)) return;  // already down at the soil: follow the landing
-  // z + v tau - g tau^2 / 2 = z_land, the later root; the jump stops at max_impact_time
+  // z + v tau - g tau^2 / 2 = z_land, the later root; the jump stops where the stage must
+  // end (twice max_impact_time, see impact_step)
   double tau = (v + std::sqrt(v * v + 2.0 * g * (z - z_land))) / g;
-  tau = std::min(tau, std::max(0.0, sch.max_impact_time - (sim_.time() - stage_t0_)));
+  tau = std::min(tau, std::max(0.0, 2.0 * sch.max_impact_time - (sim_.time() - stage_t0_)));
   // pounder.csv keeps its rows through the jump (the free fall, no contact force)
   const double t0 = sim_.time(), blow = stages_[next_stage_].blow;
   for (double t = next_record_; t < t0 + tau; t += sch.tracer_interval) {

@@ -225,7 +225,7 @@ bool DropSequence::impact_step() {
     flight_time_ += dt;
   }
   if (z_start_ < 1e299 && first_rebound_open_ > 0) up_max_ = std::max(up_max_, b.v_z);
-  if (sch.flight == "ballistic") ballistic_flight(min_flight);
+  if (sch.flight == "ballistic") ballistic_flight(min_flight, touching);
 
   const bool at_rest = touching && std::fabs(b.v_z) < sch.rest_speed &&
                        std::fabs(lift - weight) < sch.rest_force_tolerance * weight;
@@ -267,15 +267,14 @@ bool DropSequence::impact_step() {
 // of the flight, so the energy account is untouched; the soil's, after the relaxation, is
 // what the damping left (booked as damping work). Contact during the relaxation (a force
 // above 1 % of the weight) ends it: the flight is then followed.
-void DropSequence::ballistic_flight(double min_flight) {
+void DropSequence::ballistic_flight(double min_flight, bool touching) {
   const ScheduleSpec& sch = cfg_.schedule;
   const RigidBody& b = sim_.body();
   const double g = sim_.gravity_at(sim_.time());
-  // clear of the soil: the contact force below 1 % of the weight, as for the contact phases
-  // (a grain grazing the barrel's side must not keep a long flight from being jumped; the
-  // landing height is above every particle within the widest radius, so none is overlapped)
-  const double weight = b.mass * cfg_.gravity;
-  const bool clear = !(b.contact.touching > 0 && -b.contact.force_z > 0.01 * weight);
+  // clear of the soil: not touching by the contact phases' rule (force below 1 % of the
+  // weight: a grain grazing the barrel's side must not keep a long flight from being jumped;
+  // the landing height is above every particle within the widest radius, so none is overlapped)
+  const bool clear = !touching;
   if (relax_since_ < 0) {
     if (clear && out_since_ >= 0 && out_since_ != relaxed_flight_ && sim_.time() - out_since_ >= min_flight &&
         b.v_z > 0 && 2.0 * b.v_z / g > 2.0 * sch.flight_relax_time) {

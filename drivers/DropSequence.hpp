@@ -176,7 +176,7 @@ class DropSequence : public Run {
   // impact, schedule.flight = "ballistic": the damped relaxation of the soil in a flight
   // (start time, -1 none; out_since_ of the flight it was for) and the time jumped
   double relax_since_ = -1, relaxed_flight_ = -1, ballistic_time_ = 0;
-  void ballistic_flight(double min_flight);
+  void ballistic_flight(double min_flight, bool touching);
   std::vector<double> energy0_;  // energy_state() at the placement of the pounder
   double stage_wall_ = 0;    // wall seconds of the current blow so far
   std::vector<BlowRecord> blows_;

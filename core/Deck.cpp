@@ -469,6 +469,9 @@ MaterialSpec read_material(const Reporter& rep, const toml::table& tbl, const st
     if (const auto broken = d.rule(mat)) blame(*broken);
   if (d.effects && mat.crush_pressure > 0 && mat.air_voids <= 0)
     blame({"crush_pressure", "needs air_voids > 0", "air_voids in (0, 1): the largest compaction strain"});
+  if (mat.separation_density > 0 && mat.separation_density >= mat.density)
+    blame({"separation_density", "is not below the material's density " + fmt_float(mat.density) + " kg/m3",
+           "0 (never) or a density below it: the loosest packing, grain density / (1 + e_max)"});
   return mat;
 }
 
@@ -956,7 +959,7 @@ std::string to_toml(const Config& c) {
     o << "model = " << quote(m.model) << "\n";
     for (const ModelKey* k : keys_of(material_model(m))) {
       const double x = key_value(m, *k);
-      if (is_effect_key(k->key) && x == k->fallback.value_or(0.0)) continue;  // keeps decks short
+      if (omitted_at_default(*k) && x == k->fallback.value_or(0.0)) continue;  // keeps decks short
       o << k->key << " = " << fmt_float(x) << (k->unit.empty() ? "" : "  # " + k->unit) << "\n";
     }
   }

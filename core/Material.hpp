@@ -23,6 +23,8 @@ struct MaterialParams {
   double psi = 0;             // dilation angle, rad, [0, phi]
   double tension_cutoff = 0;  // Pa, largest allowed mean stress (tension positive), >= 0;
                               // for phi > 0 the apex c cot(phi) applies if smaller
+  double separation_density = 0;  // kg/m3: a granular material below its loosest packing has
+                                  // no grain contacts and carries no stress (0 = never)
 
   // Effects added to Mohr-Coulomb / Tresca (models/Effects.hpp, docs/effects.md); each is
   // off at its default.

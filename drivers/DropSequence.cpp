@@ -537,16 +537,20 @@ void DropSequence::restore(const Checkpoint& c) {
   blows_.clear();
   const auto& br = c.reals.at("seq_blows");
   const auto& cols = blow_columns();
-  const size_t nm = cfg_.materials.size(), width = 2 + cols.size() + nm;
+  const size_t nm = cfg_.materials.size();
+  // A checkpoint written before the last column (ballistic_time_s, 2026-12-02) reads with
+  // it 0: no flight was jumped then. Any other width is another deck or an older Tamp.
+  const size_t nc = static_cast<size_t>(br.width) + 1 == 2 + cols.size() + nm ? cols.size() - 1 : cols.size();
+  const size_t width = 2 + nc + nm;
   if (br.width != static_cast<int>(width))
     throw std::invalid_argument("the checkpoint's blow table has " + std::to_string(br.width) + " columns; this version writes " +
-                                std::to_string(width) + " (a checkpoint of an older Tamp or of another deck)");
+                                std::to_string(2 + cols.size() + nm) + " (a checkpoint of an older Tamp or of another deck)");
   for (size_t i = 0; i + width <= br.values.size(); i += width) {
     const double* v = &br.values[i];
     BlowRecord b;
     b.blow = static_cast<int>(v[0]);
-    for (size_t k = 0; k < cols.size(); ++k) b.*cols[k].field = v[1 + k];
-    b.plastic_J.assign(v + 1 + cols.size(), v + 1 + cols.size() + nm);
+    for (size_t k = 0; k < nc; ++k) b.*cols[k].field = v[1 + k];
+    b.plastic_J.assign(v + 1 + nc, v + 1 + nc + nm);
     b.wall_s = v[width - 1];
     blows_.push_back(b);
   }

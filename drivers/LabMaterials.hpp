@@ -21,7 +21,8 @@ inline MaterialSpec clay(const std::string& model = "tresca") {
 }
 
 // Crushed basalt 5-25 mm, the backfill: cohesionless Mohr-Coulomb, phi = 47 deg, psi = 0,
-// G = 6.86 MPa, nu = 0.2, unit weight 18 kN/m3 (examples/lab-test.toml).
+// G = 6.86 MPa, nu = 0.2, unit weight 18 kN/m3, grains separate below 1526 kg/m3
+// (examples/lab-test.toml).
 inline MaterialSpec aggregate() {
   MaterialSpec m;
   m.name = "aggregate";
@@ -30,6 +31,7 @@ inline MaterialSpec aggregate() {
   m.shear_modulus = 6.86e6;
   m.poisson_ratio = 0.2;
   m.phi_deg = 47.0;
+  m.separation_density = 1526.0;
   return m;
 }
 

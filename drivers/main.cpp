@@ -48,7 +48,7 @@ using tamp::Simulation;
 using tamp::XdmfSeries;
 using tamp::load_deck;
 using tamp::ModelKey;
-using tamp::is_effect_key;
+using tamp::omitted_at_default;
 using tamp::key_value;
 using tamp::keys_of;
 using tamp::material_model;
@@ -93,7 +93,7 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
     os << "  " << m.name << ": " << m.model;
     for (const ModelKey* k : keys_of(material_model(m))) {
       const double x = key_value(m, *k);
-      if (is_effect_key(k->key) && x == k->fallback.value_or(0.0)) continue;
+      if (omitted_at_default(*k) && x == k->fallback.value_or(0.0)) continue;
       os << ", " << k->key << " " << x << (k->unit.empty() ? "" : " " + k->unit);
     }
     os << ", c_p " << fmt("%.1f", p.wave_speed()) << " m/s";

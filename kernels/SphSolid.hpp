@@ -124,6 +124,15 @@ struct StrainRateAndStress {
     // (compaction: at most the air voids, ~15 %).
     const double rho0 = m.density;
     const double rho_new = math::min(1.5 * rho0, math::max(0.7 * rho0, rho(a) * math::exp(-div * dt)));
+    // Separated grains: a granular material looser than its loosest packing has no grain
+    // contacts and carries no stress (Dunatunga & Kamrin 2015, JFM 779: the "disconnected"
+    // phase below the critical packing density). Without this, a grain dilated to 0.7 rho_0
+    // under the pounder kept the compressive stress it was loaded with and, reaching its
+    // neighbours 2.5-3.5 spacings away through the kernel's tail, held the pounder up (a
+    // sparse skeleton). Its elastic energy is released into the internal energy's
+    // dissipated part: the internal energy (the work done) is unchanged.
+    if (m.separation_density > 0.0 && rho_new < m.separation_density)
+      for (int c = 0; c < 4; ++c) s[c] = 0.0;
     // Stress power per unit mass, trapezoidal in the stress: du = sigma : deps / rho.
     double work = 0;
     for (int c = 0; c < 3; ++c) work += 0.5 * (s[c] + s_old[c]) * deps[c];

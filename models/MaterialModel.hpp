@@ -31,6 +31,7 @@ struct ModelKey {
   std::string meaning;                // short text for the plan and error messages
   double MaterialSpec::*field = nullptr;  // where it is stored; nullptr: MaterialSpec::params[key]
   bool fittable = true;               // calibration may fit it (drivers/Calibration.cpp)
+  bool shown_at_default = true;       // false: written and printed only when set (keeps decks short)
 };
 
 // A rule between keys, checked after all keys are read; when broken, the key to blame,
@@ -58,14 +59,16 @@ const std::vector<ModelDescription>& material_models();
 const ModelDescription* find_material_model(const std::string& name);
 // The description of spec.model; throws std::invalid_argument naming the registered models.
 const ModelDescription& material_model(const MaterialSpec& spec);
-// The keys every material has (density, G, nu) and the effect keys (models/Effects.hpp).
+// The keys every material has (density, G, nu, separation_density) and the effect keys
+// (models/Effects.hpp).
 const std::vector<ModelKey>& common_material_keys();
 const std::vector<ModelKey>& effect_material_keys();
 // A model key kept in MaterialSpec::params; throws std::invalid_argument naming the
 // material and the key when it is not set (a MaterialSpec built in code without it).
 double model_param(const MaterialSpec& spec, const std::string& key);
-// Whether key is one of the effect keys (written and printed only when set).
-bool is_effect_key(const std::string& key);
+// Whether key k is written and printed only when it differs from its default (the effect
+// keys and the optional common keys).
+bool omitted_at_default(const ModelKey& k);
 // Where key k of spec is stored, and the value (its fallback when unset).
 double& key_value(MaterialSpec& spec, const ModelKey& k);
 double key_value(const MaterialSpec& spec, const ModelKey& k);

@@ -52,6 +52,10 @@ const std::vector<ModelKey>& common_material_keys() {
       {"density", "kg/m3", gt(0), std::nullopt, "density (or unit_weight in N/m3)", &MaterialSpec::density},
       {"G", "Pa", gt(0), std::nullopt, "shear modulus", &MaterialSpec::shear_modulus},
       {"nu", "", ge_lt(0, 0.5), std::nullopt, "Poisson's ratio", &MaterialSpec::poisson_ratio},
+      // A granular material's loosest packing: below it the grains have no contacts and
+      // carry no stress (models/StressUpdate.hpp, docs/models.md "Separated grains").
+      {"separation_density", "kg/m3", ge(0), 0.0, "grains separate (no stress) below this density; 0 = never",
+       &MaterialSpec::separation_density, false, false},
   };
   return keys;
 }
@@ -81,9 +85,10 @@ double model_param(const MaterialSpec& spec, const std::string& key) {
   return it->second;
 }
 
-bool is_effect_key(const std::string& key) {
+bool omitted_at_default(const ModelKey& k) {
+  if (!k.shown_at_default) return true;
   for (const auto& e : effect_material_keys())
-    if (e.key == key) return true;
+    if (e.key == k.key) return true;
   return false;
 }
 
@@ -116,6 +121,7 @@ MaterialParams make_material(const MaterialSpec& s) {
   m.density = s.density;
   m.shear_modulus = s.shear_modulus;
   m.bulk_modulus = bulk_from_shear(s.shear_modulus, s.poisson_ratio);
+  m.separation_density = s.separation_density;
   if (d.to_params) d.to_params(s, m);
   if (d.effects) {
     m.crush_pressure = s.crush_pressure;

@@ -327,6 +327,78 @@ HeapShape heap_shape(const Simulation& sim, double dp, double domain_radius) {
 
 }  // namespace
 
+TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stress, and take load again once "
+          "compacted back to it", "[aggregate]") {
+  // Uniaxial strain imposed on every particle (v_z = rate * z0 row by row, v_r = 0; fixed
+  // base, roller side): a homogeneous stretch lambda = 1 + rate t, so that, in the bulk,
+  // continuity gives rho = rho_0 / lambda and the hypoelastic update sigma_zz = M ln lambda,
+  // sigma_rr = sigma_tt = (K - 2G/3) ln lambda (M = K + 4G/3). Below the separation density
+  // rho_c = 0.9 rho_0 (lambda_c = 1 / 0.9) the stress is zero; stretched to lambda = 1.25
+  // and compressed back to 1.0, the stress stays zero until rho is back at rho_c, then
+  // grows as sigma_zz = M ln(lambda / lambda_c). The material is elastic (a Mohr-Coulomb
+  // charge would be stress-free in tension anyway) so that the rule is what is seen.
+  // Tolerance 1 % of M ln(lambda) where stressed (the strain increments are summed with
+  // the rate of each step, first order in rate dt = 3e-5) and 1e-9 Pa where separated;
+  // the interior rows only (the top rows' kernel is truncated).
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const double dp = 0.01, R = 0.05, L = 0.12, rate = 1.0;  // m, m, m, 1/s
+  Config cfg = column_config(R, L, dp);
+  cfg.sph.kernel_correction = true;  // linear velocity fields differentiated exactly
+  MaterialSpec agg = tamp::lab::aggregate();
+  agg.model = "elastic";
+  agg.name = "clay";  // the column's block material
+  agg.separation_density = 0.9 * agg.density;
+  cfg.materials = {agg};
+  Simulation sim(cfg);
+  const auto& m = sim.materials()[0];
+  const double M = m.p_wave_modulus(), lam = m.bulk_modulus - 2.0 / 3.0 * m.shear_modulus;
+  const int rows = static_cast<int>(std::lround(L / dp));
+  // every row moves at rate * its height at lambda = 1 (sign -1: compression)
+  auto impose = [&](double lambda, double sign) {
+    for (int j = 0; j < rows; ++j) {
+      const double z0 = (j + 0.5) * dp, z = lambda * z0;
+      sim.prescribe_velocity({0, 1, z - 0.3 * dp, z + 0.3 * dp}, 0.0, sign * rate * z0);
+    }
+  };
+  // interior particles (initial rows 3-6): worst relative error of sigma_zz, sigma_rr
+  // against the expected values, and the mean density over rho_0
+  auto check = [&](double lambda, double lambda_zero, bool separated) {
+    const tamp::ParticleSnapshot s = sim.snapshot();
+    double worst = 0, rho = 0;
+    int n = 0;
+    for (size_t i = 0; i < s.r.size(); ++i) {
+      const double z0 = s.z[i] / lambda;
+      if (z0 < 3 * dp || z0 > 7 * dp || s.r[i] > R - 2 * dp) continue;
+      const double e = std::log(lambda / lambda_zero);
+      if (separated) {
+        worst = std::max({worst, std::fabs(s.s_zz[i]), std::fabs(s.s_rr[i]), std::fabs(s.s_tt[i])});
+      } else {
+        worst = std::max({worst, std::fabs(s.s_zz[i] - M * e) / (M * std::fabs(e)),
+                          std::fabs(s.s_rr[i] - lam * e) / (M * std::fabs(e))});
+      }
+      rho += s.density[i] / m.density;
+      ++n;
+    }
+    REQUIRE(n > 0);
+    std::printf("[separation] lambda %.3f: rho/rho_0 %.4f (expected %.4f), %s %.2e\n", lambda, rho / n,
+                1.0 / lambda, separated ? "largest |stress| Pa" : "worst relative stress error", worst);
+    CHECK(rho / n == Approx(1.0 / lambda).epsilon(2e-3));
+    return worst;
+  };
+  impose(1.0, +1.0);
+  const double lambda_c = 1.0 / 0.9;
+  sim.advance_to(0.08);  // lambda 1.08: stretched, still in contact
+  CHECK(check(1.08, 1.0, false) < 0.01);
+  sim.advance_to(0.25);  // lambda 1.25: separated (rho 0.8 rho_0)
+  CHECK(check(1.25, 1.0, true) < 1e-9);
+  impose(1.25, -1.0);
+  sim.advance_to(0.25 + 0.10);  // lambda 1.15: compressed, still looser than rho_c
+  CHECK(check(1.15, 1.0, true) < 1e-9);
+  sim.advance_to(0.25 + 0.25);  // lambda 1.0: back in contact from lambda_c on
+  CHECK(check(1.0, lambda_c, false) < 0.01);
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
 TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and comes to rest, 3 deg steeper it slumps",
           "[aggregate]") {
   // A cohesionless slope is in limit equilibrium at beta = phi (infinite-slope analysis;

@@ -143,6 +143,7 @@ void require_same(const Config& a, const Config& b) {
     CHECK(x.phi_deg == y.phi_deg);
     CHECK(x.psi_deg == y.psi_deg);
     CHECK(x.tension_cutoff == y.tension_cutoff);
+    CHECK(x.separation_density == y.separation_density);
   }
   REQUIRE(a.blocks.size() == b.blocks.size());
   for (std::size_t i = 0; i < a.blocks.size(); ++i) {
@@ -283,6 +284,7 @@ TEST_CASE("Deck: to_toml round trip gives the same Config", "[deck]") {
     m.phi_deg = 35.123456789;
     m.psi_deg = 35.123456789;
     m.tension_cutoff = 5;
+    m.separation_density = 1000.0 / 0.9;
     a.materials.push_back(m);
     tamp::MaterialSpec t;
     t.name = "clay";
@@ -392,6 +394,12 @@ TEST_CASE("Deck: out-of-range values are rejected", "[deck]") {
     Parts p;
     p.materials = mohr_coulomb + "phi_deg = 20\npsi_deg = 25.5\n";
     require_error(p.text(), {"materials[0].psi_deg = 25.5", "psi_deg <= phi_deg"});
+  }
+  SECTION("separation density not below the density") {
+    Parts p;
+    p.materials = mohr_coulomb + "separation_density = 2000\n";
+    require_error(p.text(), {"materials[0].separation_density = 2000", "is not below the material's density 2000",
+                             "grain density / (1 + e_max)"});
   }
   SECTION("cfl above 1") {
     Parts p;

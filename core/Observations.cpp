@@ -66,7 +66,22 @@ ObservationSet load_observations(const std::string& path) {
   set.scenario_as_written = *scen;
   const fs::path sp(*scen);
   set.scenario = sp.is_absolute() ? sp.string() : (fs::path(path).parent_path() / sp).lexically_normal().string();
-  if (auto t = root["target_material"].value<std::string>()) set.target_material = *t;
+  if (const auto* node = root.get("target_material")) {
+    set.target_materials.clear();
+    if (auto t = node->value<std::string>()) set.target_materials.push_back(*t);
+    if (const auto* list = node->as_array())
+      for (size_t i = 0; i < list->size(); ++i) {
+        const auto t = list->get(i)->value<std::string>();
+        if (!t || t->empty())
+          bad("target_material[" + std::to_string(i) + "]", "...", "is not a material name", "a string naming a material of the scenario");
+        for (const auto& seen : set.target_materials)
+          if (seen == *t) bad("target_material", "\"" + *t + "\"", "is named twice", "each material once");
+        set.target_materials.push_back(*t);
+      }
+    if (set.target_materials.empty())
+      bad("target_material", "...", "names no material", "a material name or a non-empty list of them");
+    set.target_material = set.target_materials.front();
+  }
   const auto* arr = root["observations"].as_array();
   if (!arr || arr->empty()) throw DeckError(shown + ": observations is missing; required: at least one [[observations]] entry");
   for (size_t i = 0; i < arr->size(); ++i) {
@@ -125,7 +140,13 @@ void write_observations(const std::string& path, const ObservationSet& set, cons
   std::istringstream hc(header_comment);
   for (std::string line; std::getline(hc, line);) o << "# " << line << "\n";
   o << "scenario = \"" << set.scenario_as_written << "\"\n";
-  o << "target_material = \"" << set.target_material << "\"\n";
+  if (set.target_materials.size() > 1) {
+    o << "target_material = [";
+    for (size_t i = 0; i < set.target_materials.size(); ++i) o << (i ? ", " : "") << "\"" << set.target_materials[i] << "\"";
+    o << "]\n";
+  } else {
+    o << "target_material = \"" << set.target_material << "\"\n";
+  }
   for (const auto& ob : set.observations) {
     o << "\n[[observations]]\nquantity = \"" << ob.quantity << "\"\n";
     if (ob.blow > 0) o << "blow = " << ob.blow << "\n";

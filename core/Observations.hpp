@@ -2,7 +2,8 @@
 // naming the scenario deck it belongs to and a list of observations.
 //
 //   scenario = "../examples/lab-test.toml"     # relative to this file
-//   target_material = "clay"                   # the material the effects are tried on
+//   target_material = "clay"                   # the material(s) the effects are tried on:
+//                                              #   a name or a list ["clay", "aggregate"]
 //   [[observations]]
 //   quantity = "uplift_m"                      # a key of summary.json, or a per-blow column
 //   range = [0.010, 0.014]                     #   of blows.csv with `blow = N`
@@ -35,7 +36,8 @@ struct ObservationSet {
   std::string file;             // the data file
   std::string scenario;         // path of the scenario deck (resolved against the file's folder)
   std::string scenario_as_written;
-  std::string target_material = "clay";
+  std::string target_material = "clay";      // the first of target_materials
+  std::vector<std::string> target_materials = {"clay"};
   std::vector<Observation> observations;
 };
 

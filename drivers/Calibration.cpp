@@ -2,6 +2,7 @@
 #include "models/MaterialModel.hpp"
 
 #include <Eigen/Dense>
+#include <unsupported/Eigen/SpecialFunctions>  // igammac: the chi-square goodness of fit
 #ifdef TAMP_HAVE_NLOPT
 #include <nlopt.h>
 #endif
@@ -227,11 +228,25 @@ std::string residual_table(const std::vector<Residual>& r) {
   return o.str();
 }
 
-UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double threshold) {
+UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double threshold, int fitted_params,
+                                         double p_min) {
   UnexplainedResidual u;
   u.threshold = threshold;
+  u.p_min = p_min;
   u.error = rms(r);
-  u.remains = u.error > threshold;
+  for (const Residual& x : r) u.chi2 += x.normalised * x.normalised;
+  u.dof = static_cast<int>(r.size()) - fitted_params;
+  // chi-square goodness of fit: the probability of a chi2 this large from the noise alone,
+  // Q(dof/2, chi2/2) (Eigen's regularised upper incomplete gamma)
+  if (u.dof >= 1 && std::isfinite(u.chi2)) {
+    Eigen::ArrayXd a(1), x(1);
+    a << 0.5 * u.dof;
+    x << 0.5 * u.chi2;
+    u.p_value = Eigen::igammac(a, x)(0);
+  }
+  u.too_large_error = u.error > threshold;
+  u.poor_fit = u.dof >= 1 && u.p_value < p_min;
+  u.remains = u.too_large_error || u.poor_fit;
   if (!u.remains) return u;
   for (const Residual& x : r) {
     if (!(std::fabs(x.normalised) > threshold)) continue;
@@ -245,11 +260,16 @@ UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double 
 }
 
 std::string UnexplainedResidual::text() const {
+  const std::string fit = dof >= 1 ? "chi2 " + fmt_g(chi2, "%.1f") + " on " + std::to_string(dof) +
+                                         " degrees of freedom, p = " + fmt_g(p_value, "%.2g")
+                                   : std::string("no degrees of freedom left");
   if (!remains)
-    return "the error " + fmt_g(error, "%.3f") + " is within " + fmt_g(threshold, "%g") +
-           ": no residual is left that the catalogue does not explain";
-  std::string s = "a residual remains that the catalogue does not explain (error " + fmt_g(error, "%.3f") + " > " +
-                  fmt_g(threshold, "%g") + ")";
+    return "the error " + fmt_g(error, "%.3f") + " is within " + fmt_g(threshold, "%g") + " and the fit is within the " +
+           "noise (" + fit + "): no residual is left that the catalogue does not explain";
+  std::string s = "a residual remains that the catalogue does not explain (";
+  if (too_large_error) s += "error " + fmt_g(error, "%.3f") + " > " + fmt_g(threshold, "%g") + "; ";
+  s += fit + (poor_fit ? " < " + fmt_g(p_min, "%g") + ": more misfit than the uncertainties explain" : std::string()) + ")";
+  if (groups.empty()) s += ": no single observation beyond " + fmt_g(threshold, "%g") + " uncertainties";
   for (size_t k = 0; k < groups.size(); ++k) {
     const UnexplainedGroup& g = groups[k];
     s += (k ? "; " : ": ") + g.quantity;
@@ -763,6 +783,84 @@ FitResult scan_then_polish(Config start, const ObservationSet& data, const std::
 }
 }  // namespace
 
+namespace {
+// One candidate of a diagnosis step: an effect of the catalogue on one target material.
+struct StepCandidate {
+  const EffectCandidate* effect;
+  std::string material;
+  std::string label;  // "compaction", or "compaction (aggregate)" when the data names several targets
+};
+
+// The grid of the scan of the first baseline parameter at each profile value of an effect
+// (factors of its current value, 10-15 % apart, 0.5-1.5): wide enough for the strength that an
+// effect trades against (the rate test: Su 0.65 of the baseline fit with the effect in place).
+const std::vector<double>& profile_factors() {
+  static const std::vector<double> f{0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.15, 1.3, 1.5};
+  return f;
+}
+
+// A candidate refitted on top of the current model: a profile over the effect's grid (from
+// nearly off to strong), at every grid value the first baseline parameter scanned over
+// profile_factors() of its current value; all points of grid x scan are one batch, run side
+// by side. Then Nelder-Mead over the current parameters and the effect's from the best point.
+// (The strength and the effect trade off along a narrow valley that a simplex started at
+// one end does not follow; the grid finds the valley, the simplex its floor.)
+FitResult profile_fit(const Config& current, const std::vector<std::string>& current_params,
+                      const std::string& refit_param, const StepCandidate& cand, const ObservationSet& data,
+                      const CalibrateOptions& opt) {
+  Runner runner(opt);
+  Config c = current;
+  apply_effect(c, cand.material, cand.effect->name);
+  const std::string key = cand.material + "." + cand.effect->fitted[0].first;
+  const double v0 = get_param(current, refit_param);
+  std::vector<Config> batch;
+  for (double g : cand.effect->grid)
+    for (double f : profile_factors()) {
+      Config cg = c;
+      set_param(cg, key, g);
+      set_param(cg, refit_param, v0 * f);
+      batch.push_back(cg);
+    }
+  const auto results = runner.runs->run(batch);
+  double best = std::numeric_limits<double>::infinity();
+  size_t best_k = 0;
+  const size_t nf = profile_factors().size();
+  for (size_t i = 0; i < cand.effect->grid.size(); ++i) {
+    double row = std::numeric_limits<double>::infinity();
+    for (size_t j = 0; j < nf; ++j) {
+      const double chi2 = chi2_of(data, results[i * nf + j]);
+      row = std::min(row, chi2);
+      if (chi2 < best) { best = chi2; best_k = i * nf + j; }
+    }
+    log::info("diagnose:   " + key + " = " + fmt_g(cand.effect->grid[i]) + ": chi2 " + fmt_g(row) + " (best " +
+              refit_param + " of the scan)");
+  }
+  std::vector<std::string> params = current_params;
+  for (const auto& [k, v] : cand.effect->fitted) params.push_back(cand.material + "." + k);
+  CalibrateOptions fo = opt;
+  fo.max_runs = 8 + 6 * static_cast<int>(params.size());
+  fo.simplex_steps.assign(params.size(), 0.1);
+  FitResult f = calibrate(batch[best_k], data, params, fo);
+  f.runs += static_cast<int>(batch.size());
+  return f;
+}
+
+// One step of the diagnosis: the model at its start, every candidate refitted on top of
+// it, and the one selected (-1: none earned its parameters).
+struct DiagnosisStep {
+  FitResult start;
+  std::vector<std::pair<StepCandidate, FitResult>> fits;
+  int chosen = -1;
+};
+
+std::string join_labels(const std::vector<std::string>& labels) {
+  if (labels.empty()) return "none";
+  std::string s;
+  for (size_t i = 0; i < labels.size(); ++i) s += (i ? " + " : "") + labels[i];
+  return s;
+}
+}  // namespace
+
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt0) {
   DiagnoseOptions opt = opt0;
   fs::create_directories(out_dir);
@@ -784,88 +882,104 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   const auto wall0 = std::chrono::steady_clock::now();
   if (opt.baseline_params.empty()) opt.baseline_params = {data.target_material + ".Su"};
   const Config base = load_deck(data.scenario);
-  const std::string& mat = data.target_material;
+  for (const auto& m : data.target_materials) {
+    bool known = false;
+    for (const auto& mm : base.materials) known = known || mm.name == m;
+    if (!known) {
+      std::string allowed;
+      for (const auto& mm : base.materials) allowed += (allowed.empty() ? "" : ", ") + mm.name;
+      throw DeckError(data.file + ": target_material = \"" + m + "\" is not a material of " + data.scenario +
+                      "; allowed: " + allowed);
+    }
+  }
+  // every effect of the catalogue on every target material
+  std::vector<StepCandidate> remaining;
+  for (const auto& m : data.target_materials)
+    for (const auto& e : effect_catalogue())
+      remaining.push_back({&e, m, data.target_materials.size() > 1 ? e.name + " (" + m + ")" : e.name});
   log::info("diagnose: baseline fit of " + std::to_string(opt.baseline_params.size()) + " parameter(s)");
   // baseline: a coarse scan (factors 0.5-2 of the deck values), then Nelder-Mead
-  FitResult baseline = scan_then_polish(base, data, opt.baseline_params, {0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0}, 0.1,
-                                        10 + 8 * static_cast<int>(opt.baseline_params.size()), opt.fit);
-  Config fitted = base;
-  for (size_t j = 0; j < baseline.names.size(); ++j) set_param(fitted, baseline.names[j], baseline.values[j]);
-  std::vector<std::pair<std::string, FitResult>> fits;
-  for (const auto& e : effect_catalogue()) {
-    log::info("diagnose: refit with effect '" + e.name + "'");
-    Config c = fitted;
-    apply_effect(c, mat, e.name);
-    const std::string key = mat + "." + e.fitted[0].first;
-    // 1. profile: the baseline parameters refitted (scan +-30 % and polish) at each grid
-    //    value of the effect, warm-started from the best so far
-    CalibrateOptions inner = opt.fit;
-    inner.verbose = false;
-    double best_chi2 = std::numeric_limits<double>::infinity();
-    Config best_cfg = c;
-    int runs = 0;
-    for (double g : e.grid) {
-      Config cg = best_cfg;
-      set_param(cg, key, g);
-      const FitResult f = scan_then_polish(cg, data, opt.baseline_params, {0.7, 0.85, 1.0, 1.15, 1.3}, 0.05,
-                                           4 + 4 * static_cast<int>(opt.baseline_params.size()), inner);
-      runs += f.runs;
-      log::info("diagnose:   " + key + " = " + fmt_g(g) + ": chi2 " + fmt_g(f.chi2));
-      if (f.chi2 < best_chi2) {
-        best_chi2 = f.chi2;
-        best_cfg = cg;
-        for (size_t j = 0; j < f.names.size(); ++j) set_param(best_cfg, f.names[j], f.values[j]);
+  const FitResult baseline0 = scan_then_polish(base, data, opt.baseline_params, {0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0},
+                                               0.1, 10 + 8 * static_cast<int>(opt.baseline_params.size()), opt.fit);
+  // The steps: every remaining candidate refitted on top of the current model; the one that
+  // lowers BIC most, by more than the margin, joins it; stop when none does.
+  std::vector<DiagnosisStep> steps;
+  FitResult current = baseline0;
+  Config current_cfg = base;
+  std::vector<std::string> labels;
+  double error_before = baseline0.error;
+  for (int k = 0; k < opt.max_steps && !remaining.empty(); ++k) {
+    for (size_t j = 0; j < current.names.size(); ++j) set_param(current_cfg, current.names[j], current.values[j]);
+    DiagnosisStep st;
+    for (const auto& cand : remaining) {
+      log::info("diagnose: step " + std::to_string(k + 1) + ", refit with effect '" + cand.label + "'" +
+                (labels.empty() ? std::string() : " on top of " + join_labels(labels)));
+      CalibrateOptions inner = opt.fit;
+      inner.verbose = false;
+      st.fits.emplace_back(cand, profile_fit(current_cfg, current.names, opt.baseline_params[0], cand, data, inner));
+    }
+    // Fair comparison: the current model at each candidate's values of its own parameters;
+    // if one fits better than the current fit, it is the current fit (so an effect is not
+    // credited with what a better strength alone achieves).
+    for (const auto& [cand, f] : st.fits) {
+      Config c = current_cfg;
+      for (size_t j = 0; j < current.names.size(); ++j) set_param(c, f.names[j], f.values[j]);
+      CalibrateOptions probe = opt.fit;
+      probe.max_runs = 1 + static_cast<int>(current.names.size());  // the point itself (+ its Jacobian)
+      probe.simplex_steps.assign(current.names.size(), 1e-6);
+      const FitResult b = calibrate(c, data, current.names, probe);
+      if (b.chi2 < current.chi2) {
+        log::info("diagnose: the current model at the '" + cand.label + "' fit's values fits better (chi2 " +
+                  fmt_g(b.chi2) + " < " + fmt_g(current.chi2) + "): it becomes the current fit");
+        const int runs = current.runs + b.runs;
+        current = b;
+        current.runs = runs;
+        for (size_t j = 0; j < current.names.size(); ++j) set_param(current_cfg, current.names[j], current.values[j]);
       }
     }
-    // 2. polish: all parameters together from the best profile point
-    std::vector<std::string> params = opt.baseline_params;
-    for (const auto& [k, v] : e.fitted) params.push_back(mat + "." + k);
-    CalibrateOptions fo = opt.fit;
-    fo.max_runs = 8 + 6 * static_cast<int>(params.size());
-    fo.simplex_steps.assign(params.size(), 0.1);
-    FitResult f = calibrate(best_cfg, data, params, fo);
-    f.runs += runs;
-    fits.emplace_back(e.name, f);
+    if (k == 0) error_before = current.error;
+    st.start = current;
+    double best = current.bic() - opt.bic_margin;
+    for (size_t i = 0; i < st.fits.size(); ++i)
+      if (st.fits[i].second.bic() < best) {
+        best = st.fits[i].second.bic();
+        st.chosen = static_cast<int>(i);
+      }
+    steps.push_back(st);
+    if (st.chosen < 0) break;
+    const auto& [cand, f] = steps.back().fits[static_cast<size_t>(st.chosen)];
+    log::info("diagnose: step " + std::to_string(k + 1) + " selects '" + cand.label + "' (BIC " + fmt_g(f.bic()) +
+              " against " + fmt_g(current.bic()) + "), error " + fmt_g(current.error, "%.3f") + " -> " +
+              fmt_g(f.error, "%.3f"));
+    labels.push_back(cand.label);
+    apply_effect(current_cfg, cand.material, cand.effect->name);
+    current = f;
+    std::vector<StepCandidate> left;
+    for (const auto& c : remaining)
+      if (!(c.effect == cand.effect && c.material == cand.material)) left.push_back(c);
+    remaining = left;
   }
-  // Fair comparison: the baseline (no effect) at each candidate's best baseline parameters;
-  // if one fits better than the baseline fit found, it is the baseline (so an effect is not
-  // credited with what a better strength alone achieves).
-  for (const auto& [name, f] : fits) {
-    Config c = base;
-    for (size_t j = 0; j < opt.baseline_params.size(); ++j) set_param(c, f.names[j], f.values[j]);
-    CalibrateOptions probe = opt.fit;
-    probe.max_runs = 1 + static_cast<int>(opt.baseline_params.size());  // the point itself (+ its Jacobian)
-    probe.simplex_steps.assign(opt.baseline_params.size(), 1e-6);
-    const FitResult b = calibrate(c, data, opt.baseline_params, probe);
-    if (b.chi2 < baseline.chi2) {
-      log::info("diagnose: the baseline at the '" + name + "' fit's strength fits better (chi2 " + fmt_g(b.chi2) +
-                " < " + fmt_g(baseline.chi2) + "): it becomes the baseline");
-      const int runs = baseline.runs + b.runs;
-      baseline = b;
-      baseline.runs = runs;
-    }
-  }
-  std::string selected = "none";
-  double best = baseline.bic() - opt.bic_margin;
-  const FitResult* chosen = &baseline;
-  for (const auto& [name, f] : fits)
-    if (f.bic() < best) {
-      best = f.bic();
-      selected = name;
-      chosen = &f;
-    }
+  const std::string selected = join_labels(labels);
+  const FitResult& baseline = steps.front().start;  // the baseline after the fair comparison of step 1
+  const FitResult* chosen = &current;
+
   nlohmann::ordered_json js;
   js["data"] = data.file;
   js["selected_effect"] = selected;
-  js["error_before"] = baseline.error;
+  js["error_before"] = error_before;
   js["error_after"] = chosen->error;
   js["bic_margin"] = opt.bic_margin;
-  const UnexplainedResidual left = unexplained_residual(chosen->residuals);
+  js["target_materials"] = data.target_materials;
+  const UnexplainedResidual left = unexplained_residual(chosen->residuals, 2.0, static_cast<int>(chosen->names.size()));
   {
     nlohmann::ordered_json u;
     u["remains"] = left.remains;
     u["threshold"] = left.threshold;
     u["error_after"] = left.error;
+    u["chi2"] = left.chi2;
+    u["degrees_of_freedom"] = left.dof;
+    u["p_value"] = left.p_value;
+    u["p_min"] = left.p_min;
     u["pattern"] = nlohmann::ordered_json::array();
     for (const UnexplainedGroup& g : left.groups)
       u["pattern"].push_back({{"quantity", g.quantity}, {"blows", g.blows}, {"model_above", g.above},
@@ -879,20 +993,40 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
                         {"jobs", runner.options().jobs},
                         {"threads_per_job", runner.options().threads_per_job},
                         {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()}};
-  js["baseline"] = fit_json("none", baseline);
-  js["candidates"] = nlohmann::ordered_json::array();
-  for (const auto& [name, fit] : fits) js["candidates"].push_back(fit_json(name, fit));
   js["forward_runs"]["ranks"] = ranks().size;
+  js["baseline"] = fit_json("none", baseline);
+  // the path: per step the model it started from, every candidate tried, the one selected
+  js["path"] = nlohmann::ordered_json::array();
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const DiagnosisStep& st = steps[k];
+    nlohmann::ordered_json p;
+    p["step"] = k + 1;
+    p["selected"] = st.chosen < 0 ? std::string("none") : st.fits[static_cast<size_t>(st.chosen)].first.label;
+    p["material"] = st.chosen < 0 ? std::string() : st.fits[static_cast<size_t>(st.chosen)].first.material;
+    p["start"] = fit_json(k == 0 ? "none" : join_labels(std::vector<std::string>(labels.begin(), labels.begin() + static_cast<long>(k))), st.start);
+    if (st.chosen >= 0) {
+      const auto& [cand, fit] = st.fits[static_cast<size_t>(st.chosen)];
+      p["fit"] = fit_json(cand.label, fit);
+    }
+    p["candidates"] = nlohmann::ordered_json::array();
+    for (const auto& [cand, fit] : st.fits) {
+      auto cj = fit_json(cand.label, fit);
+      cj["material"] = cand.material;
+      cj["bic_below_start"] = st.start.bic() - fit.bic();
+      p["candidates"].push_back(cj);
+    }
+    js["path"].push_back(p);
+  }
   if (ranks().rank > 0) return selected;  // under MPI rank 0 writes the results
   std::ofstream(out_dir + "/diagnosis.json") << js.dump(2) << "\n";
 
   std::ofstream md(out_dir + "/report.md");
-  md << "# Diagnosis of " << data.file << "\n\nScenario: `" << data.scenario << "`, target material `" << mat << "`, "
-     << data.observations.size() << " observations.\n\n## Baseline (Mohr-Coulomb/Tresca) fit\n\n";
+  md << "# Diagnosis of " << data.file << "\n\nScenario: `" << data.scenario << "`, target material(s) `"
+     << join_labels(data.target_materials) << "`, " << data.observations.size() << " observations.\n\n"
+     << "## Baseline (Mohr-Coulomb/Tresca) fit\n\n";
   for (size_t j = 0; j < baseline.names.size(); ++j)
     md << "- " << baseline.names[j] << " = " << fmt_g(baseline.values[j]) << " +- " << fmt_g(baseline.sigmas[j]) << "\n";
-  md << "\n" << residual_table(baseline.residuals) << "\n## Candidates (BIC = chi2 + k ln n; an effect is selected when it "
-     << "lowers BIC by more than " << opt.bic_margin << ")\n\n| effect | parameters | chi2 | error (RMS) | BIC | heave / column volume |\n|---|---|---|---|---|---|\n";
+  md << "\n" << residual_table(baseline.residuals);
   auto row = [&](const std::string& name, const FitResult& f) {
     std::string ps;
     for (size_t j = 0; j < f.names.size(); ++j)
@@ -901,11 +1035,24 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     const auto av = f.outputs.summary.count("aggregate_volume_below_ground_m3")
                         ? f.outputs.summary.at("aggregate_volume_below_ground_m3") : 0.0;
     md << "| " << name << " | " << ps << " | " << fmt_g(f.chi2) << " | " << fmt_g(f.error, "%.3f") << " | "
-       << fmt_g(f.bic()) << " | " << (av > 0 ? fmt_g(hv / av, "%.3f") : std::string("n/a")) << " |\n";
+       << fmt_g(f.bic()) << " | " << f.runs << " | " << (av > 0 ? fmt_g(hv / av, "%.3f") : std::string("n/a")) << " |\n";
   };
-  row("none (baseline)", baseline);
-  for (const auto& [name, f] : fits) row(name, f);
-  md << "\n**Selected: " << selected << "**. Error before " << fmt_g(baseline.error, "%.3f") << ", after "
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const DiagnosisStep& st = steps[k];
+    md << "\n## Step " << k + 1 << ": candidates on top of "
+       << (k == 0 ? std::string("the baseline") : join_labels(std::vector<std::string>(labels.begin(), labels.begin() + static_cast<long>(k))))
+       << " (BIC = chi2 + k ln n; selected when it lowers BIC by more than " << opt.bic_margin << ")\n\n"
+       << "| model | parameters | chi2 | error (RMS) | BIC | forward runs | heave / column volume |\n|---|---|---|---|---|---|---|\n";
+    row(k == 0 ? std::string("none (baseline)") : "start", st.start);
+    for (const auto& [cand, f] : st.fits) row(cand.label, f);
+    md << "\n"
+       << (st.chosen < 0 ? std::string("No candidate earns its parameters: the diagnosis stops.")
+                         : "Selected: **" + st.fits[static_cast<size_t>(st.chosen)].first.label + "**, error " +
+                               fmt_g(st.start.error, "%.3f") + " -> " +
+                               fmt_g(st.fits[static_cast<size_t>(st.chosen)].second.error, "%.3f") + ".")
+       << "\n";
+  }
+  md << "\n**Selected: " << selected << "**. Error before " << fmt_g(error_before, "%.3f") << ", after "
      << fmt_g(chosen->error, "%.3f") << ".\n\nThe heave / column volume ratio is the volume balance: an undrained "
      << "(incompressible) soil heaves by the volume of the aggregate pushed into it (ratio near 1); a soil that "
      << "compacts heaves less.\n\n## Residuals after the selected fit\n\n"
@@ -913,7 +1060,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
      << ".\n\n## Traces of the baseline fit\n\n" << trace_report(baseline.outputs)
      << "## Traces of the selected fit\n\n" << trace_report(chosen->outputs);
   if (left.remains) log::warn("diagnose: " + left.text());
-  log::info("diagnose: selected '" + selected + "', error before " + fmt_g(baseline.error, "%.3f") + ", after " +
+  log::info("diagnose: selected '" + selected + "', error before " + fmt_g(error_before, "%.3f") + ", after " +
             fmt_g(chosen->error, "%.3f") + "; " + std::to_string(runner.runs()) + " forward runs (" +
             std::to_string(runner.cache_hits()) + " more from the cache, " + std::to_string(runner.failures()) +
             " failed); " + out_dir + "/diagnosis.json");
@@ -931,6 +1078,7 @@ void synthesise(const Config& cfg, const std::string& deck_path_as_written, cons
   ObservationSet set;
   set.scenario_as_written = deck_path_as_written;
   set.target_material = target_material;
+  set.target_materials = {target_material};
   auto add = [&](const std::string& q, int blow, double v, double floor) {
     Observation o;
     o.quantity = q;

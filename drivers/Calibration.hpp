@@ -42,9 +42,11 @@ std::string residual_table(const std::vector<Residual>& r);  // Markdown
 std::string residuals_json(const std::vector<Residual>& r);
 
 // What a fit leaves unexplained (docs/closing-the-loop.md, "A residual the catalogue does not
-// explain"): when its error (RMS of the normalised residuals) stays above `threshold`, the
-// observations outside `threshold` uncertainties, grouped by quantity in the order of the data
-// file, with the sign of the misfit (model above or below the measurement).
+// explain"): a residual remains when the error (RMS of the normalised residuals) stays above
+// `threshold`, or when the chi-square goodness of fit fails: chi2 this large arises from the
+// noise alone with probability p < p_min, on n - fitted_params degrees of freedom. The
+// pattern: the observations outside `threshold` uncertainties, grouped by quantity in the
+// order of the data file, with the sign of the misfit (model above or below the measurement).
 struct UnexplainedGroup {
   std::string quantity;
   std::vector<int> blows;   // the observations' blows (0: a summary quantity)
@@ -52,12 +54,18 @@ struct UnexplainedGroup {
   double largest = 0;       // the normalised residual of largest magnitude
 };
 struct UnexplainedResidual {
-  bool remains = false;  // error > threshold
+  bool remains = false;          // too_large_error or poor_fit
+  bool too_large_error = false;  // error > threshold
+  bool poor_fit = false;         // p_value < p_min
   double error = 0, threshold = 2;
+  double chi2 = 0;
+  int dof = 0;                   // observations - fitted parameters
+  double p_value = 1, p_min = 0.01;
   std::vector<UnexplainedGroup> groups;  // empty unless remains
   std::string text() const;              // one sentence for the report and the log
 };
-UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double threshold = 2.0);
+UnexplainedResidual unexplained_residual(const std::vector<Residual>& r, double threshold = 2.0,
+                                         int fitted_params = 0, double p_min = 0.01);
 
 struct FitResult {
   std::vector<std::string> names;
@@ -117,14 +125,19 @@ struct DiagnoseOptions {
   // Forward runs (drivers/ForwardRuns.hpp): this many side by side (child processes of
   // `tamp_binary` when > 1), each run remembered in DIR/cache so that a diagnosis started
   // again in the same folder does not redo them.
+  // Effects composed step by step: after one is selected the rest are tried again on top of
+  // it; at most this many steps (each adds one effect).
+  int max_steps = 3;
   int jobs = 1;
   std::string tamp_binary;
   double run_timeout_s = 0;  // a forward run longer than this is a failed point (0 = no limit)
 };
 
-// Calibrates the baseline, refits with each catalogued effect, ranks by BIC, writes
-// DIR/diagnosis.json and DIR/report.md; returns the selected effect ("none" if none earns
-// its parameters).
+// Calibrates the baseline, then step by step refits with each catalogued effect on each
+// target material on top of the model so far, adds the one that lowers BIC most (by more
+// than the margin), and stops when none does; writes DIR/diagnosis.json (with the path) and
+// DIR/report.md; returns the selected effects joined by " + " ("none" if none earns its
+// parameters), e.g. "compaction + remoulding".
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt);
 
 // Synthetic data: runs `cfg` (with whatever effect it carries) and writes the data file

@@ -240,11 +240,14 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
   } else {
     std::vector<Child> running;
     size_t next = 0;
-    // the children's environment: ours with OMP_NUM_THREADS replaced
+    // the children's environment: ours with OMP_NUM_THREADS replaced; a batch of one run
+    // (a step of a simplex) gets the threads of all the workers, since it runs alone (its
+    // result does not depend on the thread count)
     std::vector<std::string> env_text;
     for (char** e = environ; *e; ++e)
       if (std::strncmp(*e, "OMP_NUM_THREADS=", 16) != 0) env_text.push_back(*e);
-    env_text.push_back("OMP_NUM_THREADS=" + std::to_string(opt_.threads_per_job));
+    const int threads = mine.size() == 1 ? opt_.threads_per_job * opt_.jobs : opt_.threads_per_job;
+    env_text.push_back("OMP_NUM_THREADS=" + std::to_string(threads));
     std::vector<char*> envp;
     for (auto& s : env_text) envp.push_back(s.data());
     envp.push_back(nullptr);

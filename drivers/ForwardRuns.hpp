@@ -37,7 +37,7 @@ struct ForwardResult {
 
 struct ForwardRunOptions {
   int jobs = 1;               // runs side by side
-  int threads_per_job = 1;    // OMP_NUM_THREADS of a child (jobs > 1)
+  int threads_per_job = 1;    // OMP_NUM_THREADS of a child (jobs > 1; a batch of one run: jobs x this)
   std::string scratch;        // folder for the runs' result folders
   std::string cache;          // run cache folder ("" = none)
   std::string tamp_binary;    // the `tamp` executable for the children (jobs > 1)

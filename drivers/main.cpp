@@ -362,7 +362,7 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
 }
 
 int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                 int iterations, double bic_margin, int jobs, bool resume, const std::string& method) {
+                 int iterations, double bic_margin, int jobs, bool resume, const std::string& method, int max_steps) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
@@ -372,6 +372,7 @@ int cmd_diagnose(const std::string& data_path, const std::string& params, const 
   opt.baseline_params = split_list(params);
   opt.fit.max_iterations = iterations;
   opt.bic_margin = bic_margin;
+  opt.max_steps = max_steps;
   const std::string selected = tamp::diagnose(data, out, opt);
   if (tamp::ranks().rank == 0) std::cout << "selected_effect: " << selected << "\n";
   return 0;
@@ -447,6 +448,7 @@ int main(int argc, char** argv) {
                         "nelder-mead (default), lm, or NLopt's sbplx / bobyqa (bounded, derivative-free)");
   calibrate->add_flag("--force", force, "Overwrite an existing result folder");
   int jobs = 1;
+  int max_steps = 3;
   bool resume = false;
   calibrate->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
   calibrate->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
@@ -461,6 +463,8 @@ int main(int argc, char** argv) {
   diagnose->add_flag("--force", force, "Overwrite an existing result folder");
   diagnose->add_option("--method", method, "Fit method of every fit (as for calibrate; default nelder-mead)");
   diagnose->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
+  diagnose->add_option("--max-steps", max_steps, "Most effects composed, one per step (default 3)")
+      ->check(CLI::PositiveNumber);
   diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
   synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
@@ -497,7 +501,7 @@ int main(int argc, char** argv) {
     if (*check) rc = cmd_check(deck);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method, jobs, resume);
-    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume, method);
+    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume, method, max_steps);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

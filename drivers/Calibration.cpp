@@ -671,12 +671,13 @@ const std::vector<EffectCandidate>& effect_catalogue() {
   // started where the effect is active.
   static const std::vector<EffectCandidate> c{
       // started weak, the first simplex step toward a strong effect
-      // profile grids from nearly off to strong (the strength and the effect trade off along
-      // a narrow valley that a simplex started at one end does not follow)
+      // profile grids from nearly off to strong, 5 values about evenly spaced in the fitted
+      // coordinate (the strength and the effect trade off along a narrow valley that a
+      // simplex started at one end does not follow)
       {"compaction", {{"air_voids", 0.15}, {"crush_hardening", 0.0}}, {{"crush_pressure", 60e3}},
-       {400e3, 200e3, 100e3, 60e3, 35e3, 20e3, 10e3}},
-      {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.8}},
-      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.9, 0.8, 0.7, 0.55, 0.4, 0.3}},
+       {400e3, 160e3, 60e3, 25e3, 10e3}},
+      {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.06, 0.15, 0.35, 0.8}},
+      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.85, 0.7, 0.5, 0.3}},
   };
   return c;
 }

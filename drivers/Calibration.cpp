@@ -839,7 +839,7 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
   std::vector<std::string> params = current_params;
   for (const auto& [k, v] : cand.effect->fitted) params.push_back(cand.material + "." + k);
   CalibrateOptions fo = opt;
-  fo.max_runs = 8 + 6 * static_cast<int>(params.size());
+  fo.max_runs = 6 + 5 * static_cast<int>(params.size());
   fo.simplex_steps.assign(params.size(), 0.1);
   FitResult f = calibrate(batch[best_k], data, params, fo);
   f.runs += static_cast<int>(batch.size());
@@ -922,13 +922,22 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     // Fair comparison: the current model at each candidate's values of its own parameters;
     // if one fits better than the current fit, it is the current fit (so an effect is not
     // credited with what a better strength alone achieves).
+    // The points are run as one batch; only one that fits better is fitted again (its point
+    // from the cache, plus its Jacobian for the uncertainty).
+    std::vector<Config> probes;
     for (const auto& [cand, f] : st.fits) {
       Config c = current_cfg;
       for (size_t j = 0; j < current.names.size(); ++j) set_param(c, f.names[j], f.values[j]);
+      probes.push_back(c);
+    }
+    const auto probed = runner.run(probes);
+    for (size_t i = 0; i < st.fits.size(); ++i) {
+      const StepCandidate& cand = st.fits[i].first;
+      if (!(chi2_of(data, probed[i]) < current.chi2)) continue;
       CalibrateOptions probe = opt.fit;
       probe.max_runs = 1 + static_cast<int>(current.names.size());  // the point itself (+ its Jacobian)
       probe.simplex_steps.assign(current.names.size(), 1e-6);
-      const FitResult b = calibrate(c, data, current.names, probe);
+      const FitResult b = calibrate(probes[i], data, current.names, probe);
       if (b.chi2 < current.chi2) {
         log::info("diagnose: the current model at the '" + cand.label + "' fit's values fits better (chi2 " +
                   fmt_g(b.chi2) + " < " + fmt_g(current.chi2) + "): it becomes the current fit");
@@ -995,6 +1004,19 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
                         {"threads_per_job", runner.options().threads_per_job},
                         {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()}};
   js["forward_runs"]["ranks"] = ranks().size;
+  {
+    // the shape of the work: batches by their number of runs to do, and the rounds of runs
+    // it takes on W workers (each round one run time): what the wall time scales with
+    nlohmann::ordered_json shape = nlohmann::ordered_json::object(), rounds = nlohmann::ordered_json::object();
+    for (const auto& [size, count] : runner.batch_sizes()) shape[std::to_string(size)] = count;
+    for (long w : {1L, 2L, 4L, 8L, 16L, 32L, 64L, 128L}) {
+      long r = 0;
+      for (const auto& [size, count] : runner.batch_sizes()) r += count * ((size + w - 1) / w);
+      rounds[std::to_string(w)] = r;
+    }
+    js["forward_runs"]["batches_by_size"] = shape;
+    js["forward_runs"]["rounds_on_workers"] = rounds;
+  }
   js["baseline"] = fit_json("none", baseline);
   // the path: per step the model it started from, every candidate tried, the one selected
   js["path"] = nlohmann::ordered_json::array();

@@ -212,6 +212,7 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
       hits_ = hits_before + static_cast<long>(from0.size());  // counted as rank 0 counts them
     }
   }
+  if (!todo.empty()) ++batch_sizes_[static_cast<long>(todo.size())];
   auto finish = [&](size_t i, const ForwardResult& r, const std::string& dir) {
     out[i] = r;
     ++runs_;

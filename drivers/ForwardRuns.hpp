@@ -20,6 +20,7 @@
 // and effect). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
 // and started again with --resume skips what it had finished.
 #pragma once
+#include <map>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,9 @@ class ForwardRuns {
   long runs() const { return runs_; }          // forward runs done (not from the cache)
   long cache_hits() const { return hits_; }
   long failures() const { return failures_; }
+  // How many batches had how many runs to do (after the cache): the shape of a fit's work,
+  // from which its wall time on W workers is sum over batches of ceil(size / W) run times.
+  const std::map<long, long>& batch_sizes() const { return batch_sizes_; }
   const ForwardRunOptions& options() const { return opt_; }
 
  private:
@@ -62,6 +66,7 @@ class ForwardRuns {
   bool lookup(const std::string& key, const std::string& deck, ForwardResult& r) const;
   ForwardRunOptions opt_;
   long runs_ = 0, hits_ = 0, failures_ = 0, serial_ = 0;
+  std::map<long, long> batch_sizes_;
 };
 
 // The cache key of a deck's text: FNV-1a 64-bit, as 16 hex digits (the stored deck is

@@ -912,13 +912,17 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   for (int k = 0; k < opt.max_steps && !remaining.empty(); ++k) {
     for (size_t j = 0; j < current.names.size(); ++j) set_param(current_cfg, current.names[j], current.values[j]);
     DiagnosisStep st;
-    for (const auto& cand : remaining) {
-      log::info("diagnose: step " + std::to_string(k + 1) + ", refit with effect '" + cand.label + "'" +
-                (labels.empty() ? std::string() : " on top of " + join_labels(labels)));
+    // the candidates' fits side by side: their batches merged, so that the simplex moves of
+    // one share the workers with the others' (the answers of one fit after the other)
+    log::info("diagnose: step " + std::to_string(k + 1) + ", " + std::to_string(remaining.size()) +
+              " candidates refitted side by side" + (labels.empty() ? std::string() : " on top of " + join_labels(labels)));
+    std::vector<FitResult> refits(remaining.size());
+    runner.side_by_side(remaining.size(), [&](size_t i) {
       CalibrateOptions inner = opt.fit;
       inner.verbose = false;
-      st.fits.emplace_back(cand, profile_fit(current_cfg, current.names, opt.baseline_params[0], cand, data, inner));
-    }
+      refits[i] = profile_fit(current_cfg, current.names, opt.baseline_params[0], remaining[i], data, inner);
+    });
+    for (size_t i = 0; i < remaining.size(); ++i) st.fits.emplace_back(remaining[i], refits[i]);
     // Fair comparison: the current model at each candidate's values of its own parameters;
     // if one fits better than the current fit, it is the current fit (so an effect is not
     // credited with what a better strength alone achieves).

@@ -8,12 +8,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -170,7 +173,104 @@ ForwardResult ForwardRuns::run_here(const Config& cfg, const std::string& dir) {
   return r;
 }
 
+namespace {
+thread_local long t_lane = -1;  // the fit of side_by_side this thread runs (-1: none)
+}  // namespace
+
+struct ForwardRuns::Lanes {
+  std::mutex m;
+  std::condition_variable cv;
+  size_t active = 0;                                     // fits not finished
+  std::vector<const std::vector<Config>*> pending;       // a fit's batch waiting to run
+  std::vector<std::vector<ForwardResult>> results;
+  std::vector<bool> ready;
+  size_t waiting() const {
+    size_t k = 0;
+    for (const auto* p : pending) k += p != nullptr;
+    return k;
+  }
+};
+
+ForwardRuns::~ForwardRuns() = default;
+
+void ForwardRuns::side_by_side(size_t n, const std::function<void(size_t)>& fn) {
+  if (lanes_ || t_lane >= 0) throw std::logic_error("ForwardRuns::side_by_side: not re-entrant");
+  if (n == 0) return;
+  Lanes lanes;
+  lanes.active = n;
+  lanes.pending.assign(n, nullptr);
+  lanes.results.resize(n);
+  lanes.ready.assign(n, false);
+  std::vector<std::exception_ptr> errors(n);
+  lanes_ = &lanes;
+  std::vector<std::thread> threads;
+  for (size_t i = 0; i < n; ++i)
+    threads.emplace_back([&, i] {
+      t_lane = static_cast<long>(i);
+      try {
+        fn(i);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+      std::lock_guard<std::mutex> g(lanes.m);
+      --lanes.active;
+      lanes.cv.notify_all();
+    });
+  // this thread: run the merged batches until every fit has finished
+  std::exception_ptr run_error;
+  for (;;) {
+    std::vector<Config> merged;
+    std::vector<size_t> owner, offset(n, 0);
+    {
+      std::unique_lock<std::mutex> lk(lanes.m);
+      lanes.cv.wait(lk, [&] { return lanes.active == 0 || lanes.waiting() == lanes.active; });
+      if (lanes.active == 0) break;
+      for (size_t i = 0; i < n; ++i)
+        if (lanes.pending[i]) {
+          offset[i] = merged.size();
+          owner.push_back(i);
+          merged.insert(merged.end(), lanes.pending[i]->begin(), lanes.pending[i]->end());
+        }
+    }
+    std::vector<ForwardResult> out;
+    try {
+      out = run(merged);  // this thread is no fit's (t_lane -1): a plain batch
+    } catch (...) {
+      run_error = std::current_exception();
+      out.assign(merged.size(), ForwardResult{});
+      for (auto& r : out) {
+        r.ok = false;
+        r.failure = "the forward runs of this batch failed";
+      }
+    }
+    std::lock_guard<std::mutex> g(lanes.m);
+    for (size_t i : owner) {
+      const size_t k = lanes.pending[i]->size();
+      lanes.results[i].assign(out.begin() + static_cast<long>(offset[i]), out.begin() + static_cast<long>(offset[i] + k));
+      lanes.pending[i] = nullptr;
+      lanes.ready[i] = true;
+    }
+    lanes.cv.notify_all();
+  }
+  for (auto& t : threads) t.join();
+  lanes_ = nullptr;
+  if (run_error) std::rethrow_exception(run_error);
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
 std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
+  if (lanes_ && t_lane >= 0) {  // a fit of side_by_side: wait for the merged batch
+    Lanes& l = *lanes_;
+    const size_t i = static_cast<size_t>(t_lane);
+    std::unique_lock<std::mutex> lk(l.m);
+    l.ready[i] = false;
+    l.pending[i] = &batch;
+    l.cv.notify_all();
+    l.cv.wait(lk, [&] { return l.ready[i]; });
+    l.ready[i] = false;
+    return std::move(l.results[i]);
+  }
   std::vector<ForwardResult> out(batch.size());
   std::vector<std::string> decks(batch.size()), keys(batch.size());
   std::vector<size_t> todo;

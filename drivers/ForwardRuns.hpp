@@ -20,6 +20,7 @@
 // and effect). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
 // and started again with --resume skips what it had finished.
 #pragma once
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -48,8 +49,16 @@ struct ForwardRunOptions {
 class ForwardRuns {
  public:
   explicit ForwardRuns(ForwardRunOptions opt);
+  ~ForwardRuns();
   // The results of `batch`, in its order.
   std::vector<ForwardResult> run(const std::vector<Config>& batch);
+  // Independent fits side by side: fn(0), ..., fn(n-1) each in a host thread of its own,
+  // which prepares decks and reads results; the runs are done by the calling thread.
+  // Whenever every unfinished fn waits in run(), their batches are run as one (in the order
+  // of i), so that the sequential steps of n fits (a simplex's moves) share the workers. Each
+  // fn sees the results of its own batches only: the answers are those of fn(0), ..., fn(n-1)
+  // one after the other, in fewer rounds of runs. The first exception of an fn is rethrown.
+  void side_by_side(size_t n, const std::function<void(size_t)>& fn);
   ForwardResult run(const Config& cfg) { return run(std::vector<Config>{cfg})[0]; }
   long runs() const { return runs_; }          // forward runs done (not from the cache)
   long cache_hits() const { return hits_; }
@@ -67,6 +76,8 @@ class ForwardRuns {
   ForwardRunOptions opt_;
   long runs_ = 0, hits_ = 0, failures_ = 0, serial_ = 0;
   std::map<long, long> batch_sizes_;
+  struct Lanes;                     // the fits of side_by_side (ForwardRuns.cpp)
+  Lanes* lanes_ = nullptr;
 };
 
 // The cache key of a deck's text: FNV-1a 64-bit, as 16 hex digits (the stored deck is

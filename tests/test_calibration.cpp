@@ -331,6 +331,62 @@ TEST_CASE("Loop: forward runs side by side give the answers of one at a time, th
 }
 
 #ifdef TAMP_HAVE_MPI
+TEST_CASE("Loop: fits side by side give the answers of one after the other in fewer rounds of runs",
+          "[loop][forward-runs]") {
+  // Two calibrations of Su on the same data from two starts (0.7 and 1.4 of the truth), on
+  // one blow of the tiny scenario: one after the other, then side by side through
+  // ForwardRuns::side_by_side (their batches merged). Values, chi2 and runs must be equal to
+  // the last bit; the merged batches are fewer.
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const std::string d = temp_dir("lanes");
+  Config base = load_deck(tiny);
+  base.schedule.drop_heights = {0.85};
+  base.schedule.backfill_after.clear();
+  Config truth = base;
+  tamp::set_param(truth, "clay.Su", 12e3);
+  synthesise(truth, fs::relative(tiny, d).string(), "clay", 0.01, 21, d + "/data.toml", d + "/synth", "lanes");
+  const ObservationSet data = load_observations(d + "/data.toml");
+  std::vector<Config> starts(2, base);
+  tamp::set_param(starts[0], "clay.Su", 0.7 * 12e3);
+  tamp::set_param(starts[1], "clay.Su", 1.4 * 12e3);
+  auto fit = [&](const Config& c, tamp::ForwardRuns& r) {
+    tamp::CalibrateOptions o;
+    o.verbose = false;
+    o.max_runs = 10;
+    o.runner = &r;
+    return tamp::calibrate(c, data, {"clay.Su"}, o);
+  };
+  tamp::ForwardRunOptions fo;
+  fo.scratch = d + "/one";
+  tamp::ForwardRuns one(fo);
+  const tamp::FitResult a0 = fit(starts[0], one), a1 = fit(starts[1], one);
+  fo.scratch = d + "/two";
+  tamp::ForwardRuns two(fo);
+  std::vector<tamp::FitResult> b(2);
+  two.side_by_side(2, [&](size_t i) { b[i] = fit(starts[i], two); });
+  long batches_one = 0, batches_two = 0;
+  for (const auto& [size, count] : one.batch_sizes()) batches_one += count;
+  for (const auto& [size, count] : two.batch_sizes()) batches_two += count;
+  std::printf("[lanes] Su %.6f / %.6f kPa, %d + %d runs; %ld batches one after the other, %ld side by side\n",
+              a0.values[0] / 1e3, a1.values[0] / 1e3, a0.runs, a1.runs, batches_one, batches_two);
+  CHECK(b[0].values[0] == a0.values[0]);
+  CHECK(b[1].values[0] == a1.values[0]);
+  CHECK(b[0].chi2 == a0.chi2);
+  CHECK(b[1].chi2 == a1.chi2);
+  CHECK(b[0].sigmas[0] == a0.sigmas[0]);
+  CHECK(b[0].runs == a0.runs);
+  CHECK(b[1].runs == a1.runs);
+  CHECK(two.runs() <= one.runs());  // a deck both fits ask for at once runs once
+  CHECK(batches_two < batches_one);
+  // a fit that throws: the others finish, the error comes back to the caller
+  CHECK_THROWS_WITH(two.side_by_side(3, [&](size_t i) {
+                      if (i == 1) throw std::runtime_error("fit 1 failed");
+                      (void)two.run(std::vector<Config>{starts[0]});
+                    }),
+                    "fit 1 failed");
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
 TEST_CASE("Loop: a calibration shared by 2 MPI ranks gives the answer of one process", "[loop][forward-runs][mpi]") {
   // `mpirun -n 2 tamp calibrate`: the ranks share every batch of forward runs and exchange
   // the results (drivers/ForwardRuns.hpp); the fit must be the one of a single process to

@@ -31,7 +31,12 @@ const Ranks& ranks_init(int* argc, char*** argv) {
   // that a single `tamp diagnose` (and every forward-run child) never starts MPI.
   const bool launched = std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
   if (launched && !g_started) {
-    MPI_Init(argc, argv);
+    // FUNNELED: the fits of a diagnosis step run in host threads of their own
+    // (ForwardRuns::side_by_side), but only the main thread calls MPI
+    int provided = 0;
+    MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
+    if (provided < MPI_THREAD_FUNNELED)
+      throw std::runtime_error("MPI: this MPI library does not provide MPI_THREAD_FUNNELED (the diagnosis needs it)");
     g_started = true;
     MPI_Comm_rank(MPI_COMM_WORLD, &g_ranks.rank);
     MPI_Comm_size(MPI_COMM_WORLD, &g_ranks.size);

@@ -862,6 +862,19 @@ std::string join_labels(const std::vector<std::string>& labels) {
 }
 }  // namespace
 
+void check_target_materials(const ObservationSet& data, const Config& scenario) {
+  for (const auto& m : data.target_materials) {
+    bool known = false;
+    for (const auto& mm : scenario.materials) known = known || mm.name == m;
+    if (!known) {
+      std::string allowed;
+      for (const auto& mm : scenario.materials) allowed += (allowed.empty() ? "" : ", ") + mm.name;
+      throw DeckError(data.file + ": target_material = \"" + m + "\" is not a material of " + data.scenario +
+                      "; allowed: " + allowed);
+    }
+  }
+}
+
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt0) {
   DiagnoseOptions opt = opt0;
   fs::create_directories(out_dir);
@@ -883,16 +896,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   const auto wall0 = std::chrono::steady_clock::now();
   if (opt.baseline_params.empty()) opt.baseline_params = {data.target_material + ".Su"};
   const Config base = load_deck(data.scenario);
-  for (const auto& m : data.target_materials) {
-    bool known = false;
-    for (const auto& mm : base.materials) known = known || mm.name == m;
-    if (!known) {
-      std::string allowed;
-      for (const auto& mm : base.materials) allowed += (allowed.empty() ? "" : ", ") + mm.name;
-      throw DeckError(data.file + ": target_material = \"" + m + "\" is not a material of " + data.scenario +
-                      "; allowed: " + allowed);
-    }
-  }
+  check_target_materials(data, base);
   // every effect of the catalogue on every target material
   std::vector<StepCandidate> remaining;
   for (const auto& m : data.target_materials)

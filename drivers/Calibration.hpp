@@ -133,6 +133,10 @@ struct DiagnoseOptions {
   double run_timeout_s = 0;  // a forward run longer than this is a failed point (0 = no limit)
 };
 
+// Throws DeckError (file, key, value, the materials allowed) unless every target material
+// of the data file is a material of the scenario.
+void check_target_materials(const ObservationSet& data, const Config& scenario);
+
 // Calibrates the baseline, then step by step refits with each catalogued effect on each
 // target material on top of the model so far, adds the one that lowers BIC most (by more
 // than the margin), and stops when none does; writes DIR/diagnosis.json (with the path) and

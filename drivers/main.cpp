@@ -364,6 +364,7 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
 int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
                  int iterations, double bic_margin, int jobs, bool resume, const std::string& method, int max_steps) {
   const tamp::ObservationSet data = tamp::load_observations(data_path);
+  tamp::check_target_materials(data, load_deck(data.scenario));  // before the result folder
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::DiagnoseOptions opt;
@@ -464,7 +465,7 @@ int main(int argc, char** argv) {
   diagnose->add_option("--method", method, "Fit method of every fit (as for calibrate; default nelder-mead)");
   diagnose->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
   diagnose->add_option("--max-steps", max_steps, "Most effects composed, one per step (default 3)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 100));
   diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
   synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();

@@ -876,6 +876,8 @@ void check_target_materials(const ObservationSet& data, const Config& scenario) 
 }
 
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt0) {
+  if (opt0.max_steps < 1)
+    throw std::invalid_argument("diagnose: max_steps " + std::to_string(opt0.max_steps) + "; allowed: 1 or more");
   DiagnoseOptions opt = opt0;
   fs::create_directories(out_dir);
   if (opt.fit.scratch.empty()) opt.fit.scratch = out_dir + "/scratch";

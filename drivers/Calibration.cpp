@@ -1028,6 +1028,10 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     js["forward_runs"]["rounds_on_workers"] = rounds;
   }
   js["baseline"] = fit_json("none", baseline);
+  // the effects selected before step k + 1 ("none" before the first)
+  auto selected_before = [&](size_t k) {
+    return join_labels(std::vector<std::string>(labels.begin(), labels.begin() + static_cast<long>(k)));
+  };
   // the path: per step the model it started from, every candidate tried, the one selected
   js["path"] = nlohmann::ordered_json::array();
   for (size_t k = 0; k < steps.size(); ++k) {
@@ -1036,7 +1040,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     p["step"] = k + 1;
     p["selected"] = st.chosen < 0 ? std::string("none") : st.fits[static_cast<size_t>(st.chosen)].first.label;
     p["material"] = st.chosen < 0 ? std::string() : st.fits[static_cast<size_t>(st.chosen)].first.material;
-    p["start"] = fit_json(k == 0 ? "none" : join_labels(std::vector<std::string>(labels.begin(), labels.begin() + static_cast<long>(k))), st.start);
+    p["start"] = fit_json(selected_before(k), st.start);
     if (st.chosen >= 0) {
       const auto& [cand, fit] = st.fits[static_cast<size_t>(st.chosen)];
       p["fit"] = fit_json(cand.label, fit);
@@ -1073,7 +1077,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   for (size_t k = 0; k < steps.size(); ++k) {
     const DiagnosisStep& st = steps[k];
     md << "\n## Step " << k + 1 << ": candidates on top of "
-       << (k == 0 ? std::string("the baseline") : join_labels(std::vector<std::string>(labels.begin(), labels.begin() + static_cast<long>(k))))
+       << (k == 0 ? std::string("the baseline") : selected_before(k))
        << " (BIC = chi2 + k ln n; selected when it lowers BIC by more than " << opt.bic_margin << ")\n\n"
        << "| model | parameters | chi2 | error (RMS) | BIC | forward runs | heave / column volume |\n|---|---|---|---|---|---|---|\n";
     row(k == 0 ? std::string("none (baseline)") : "start", st.start);

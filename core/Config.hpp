@@ -100,6 +100,10 @@ struct FemSpec {
   std::string hourglass = "viscous";      // hourglass control: "viscous" | "stiffness" (docs/fem.md)
   double hourglass_coefficient = 0.1;     // its coefficient kappa
   double cfl = 0.8;               // element time step fraction of L/c_p (the run's cfl for particles)
+  // Multi-rate stepping: the elements take n substeps of their own stable step inside each
+  // step of the particles (n = ceil(particle step / element step)), the tie forces of the
+  // particles held over them (docs/coupling.md "Subcycled elements"). false: one step for all.
+  bool subcycle = false;
 };
 
 // Pounder <-> particle contact (kernels/RigidContact.hpp, docs/contact.md).

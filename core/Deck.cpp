@@ -584,7 +584,7 @@ void read_fem(const Table& top, Config& cfg) {
   FemSpec& f = cfg.fem;
   const toml::table* tt = sub_table(top, "fem");
   if (!tt) return;
-  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "grading", "sph_zone", "hourglass", "hourglass_coefficient", "cfl"});
+  const Table t(top.rep(), *tt, "fem", {"enabled", "element_size", "grading", "sph_zone", "hourglass", "hourglass_coefficient", "cfl", "subcycle"});
   f.enabled = boolean(t, "enabled", true);
   const double dp = cfg.sph.spacing;
   // Measured limits (docs/coupling.md): elements finer than the particles are not tied; 2 x 2
@@ -596,6 +596,7 @@ void read_fem(const Table& top, Config& cfg) {
   f.hourglass = choice(t, "hourglass", {"viscous", "stiffness"}, "hourglass control", f.hourglass);
   f.hourglass_coefficient = number(t, "hourglass_coefficient", f.hourglass_coefficient, ge_le(0, 1), "");
   f.cfl = number(t, "cfl", f.cfl, gt_le(0, 1), "");
+  f.subcycle = boolean(t, "subcycle", f.subcycle);
   const std::string zone_shape = "an inline table { r = [r_min, r_max], z = [z_min, z_max] } (m) inside the blocks";
   const toml::table* zt = sub_table(t, "sph_zone");
   if (!zt) {
@@ -903,6 +904,7 @@ std::string to_toml(const Config& c) {
     o << "hourglass = " << quote(c.fem.hourglass) << "\n";
     o << "hourglass_coefficient = " << fmt_float(c.fem.hourglass_coefficient) << "\n";
     o << "cfl = " << fmt_float(c.fem.cfl) << "\n";
+    o << "subcycle = " << (c.fem.subcycle ? "true" : "false") << "\n";
   }
 
   o << "\n[contact]\n";

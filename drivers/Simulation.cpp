@@ -320,7 +320,17 @@ double Simulation::stable_dt() const {
   Kokkos::parallel_reduce("tamp::stable_dt", Kokkos::RangePolicy<ExecSpace>(0, P.n_real), s,
                           Kokkos::Min<double>(dt));
   const double dt_sph = config_.run.cfl * dt;
-  return fem_ ? std::min(dt_sph, fem_->stable_dt()) : dt_sph;
+  if (!fem_) return dt_sph;
+  // subcycled elements keep their own step (element_substeps); otherwise the smaller rules
+  return config_.fem.subcycle && P.n_real > 0 ? dt_sph : std::min(dt_sph, fem_->stable_dt());
+}
+
+// Substeps of the elements in a particle step of dt: 1, or with [fem] subcycle the fewest
+// that keep each within the elements' stable step.
+int Simulation::element_substeps(double dt) const {
+  if (!fem_ || !config_.fem.subcycle) return 1;
+  const double n = std::ceil(dt / fem_->stable_dt() * (1.0 - 1e-12));
+  return static_cast<int>(std::min(1024.0, std::max(1.0, n)));
 }
 
 double Simulation::gravity_at(double t) const {
@@ -410,7 +420,15 @@ void Simulation::drift_elements(double dt) {
   if (!fem_) return;
   {
     Timed t(*this, &StepProfile::fem);
-    fem_->move_nodes(dt);
+    // Subcycled (Belytschko, Yen & Mullen 1979): substeps of dt/n, each a central-difference
+    // step of the elements with the tie forces of x^n held; the last stress update is
+    // element_stress's, at x^{n+1}, with the particles'.
+    fem_substeps_ = element_substeps(dt);
+    const double ds = dt / fem_substeps_;
+    for (int k = 0; k < fem_substeps_; ++k) {
+      fem_->move_nodes(ds);
+      if (k + 1 < fem_substeps_) fem_->update_elements(ds);
+    }
   }
   Timed t(*this, &StepProfile::tie);
   sync_tie_kinematics();
@@ -441,7 +459,7 @@ void Simulation::element_stress(double dt) {
   if (!fem_) return;
   {
     Timed t(*this, &StepProfile::fem);
-    fem_->update_elements(dt);
+    fem_->update_elements(dt / fem_substeps_);
   }
   Timed t(*this, &StepProfile::tie);
   sync_tie_stress();

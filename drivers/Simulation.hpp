@@ -111,6 +111,8 @@ class Simulation {
   long steps() const { return steps_; }
   double last_dt() const { return dt_; }
   double stable_dt() const;
+  // Element substeps in a particle step of dt (1 unless [fem] subcycle).
+  int element_substeps(double dt) const;
   double gravity_at(double t) const;  // m/s2, with the deck's linear ramp
   double smoothing_length() const { return sph_.h; }
   double spacing() const { return config_.sph.spacing; }
@@ -259,6 +261,7 @@ class Simulation {
   void second_half_kick(double dt);
   Kokkos::RangePolicy<ExecSpace> real_particles() const { return Kokkos::RangePolicy<ExecSpace>(0, particles_.n_real); }
   fem::FemModel* fem_ = nullptr;  // tied FEM mesh, or none
+  int fem_substeps_ = 1;          // element substeps in the current particle step ([fem] subcycle)
   std::unique_ptr<fem::FemModel> own_fem_;  // the deck's [fem] mesh (fem_ points to it)
   void build_fem();
   double spring_distance(const WallSpec& w, int axis, int side) const;

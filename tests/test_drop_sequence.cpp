@@ -217,8 +217,8 @@ TEST_CASE("Drop sequence: the CI scenario writes every output with sane values, 
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
-TEST_CASE("Drop sequence: the CI scenario with elements outside the clay zone backfills and restarts exactly; "
-          "subcycled elements give the craters of one step for all within 2 %",
+TEST_CASE("Drop sequence: the CI scenario with elements outside the clay zone backfills and restarts exactly, "
+          "and subcycled elements give the craters of one step for all within 2 %",
           "[drop-sequence][tie][fem][multirate]") {
   // The same 3 blows and charge with the sand, and the clay beyond r = 0.15 m, in 15 mm
   // quads tied to the particles (docs/coupling.md), the elements subcycled inside the

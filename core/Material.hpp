@@ -51,6 +51,14 @@ struct MaterialParams {
   KOKKOS_INLINE_FUNCTION double wave_speed() const {
     return math::sqrt(p_wave_modulus() / density);
   }
+  // Elastic strain energy per unit volume of the stress s (rr, zz, tt, rz), J/m3:
+  // p^2 / (2K) + J2 / (2G), the energy an isotropic elastic unloading would give back.
+  KOKKOS_INLINE_FUNCTION double elastic_energy_density(double s0, double s1, double s2, double s3) const {
+    const double p = (s0 + s1 + s2) / 3.0;
+    const double d0 = s0 - p, d1 = s1 - p, d2 = s2 - p;
+    const double j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) + s3 * s3;
+    return (bulk_modulus > 0 ? p * p / (2.0 * bulk_modulus) : 0.0) + (shear_modulus > 0 ? j2 / (2.0 * shear_modulus) : 0.0);
+  }
 };
 
 

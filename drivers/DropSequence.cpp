@@ -166,14 +166,19 @@ void DropSequence::begin_impact(const Stage& s) {
 
 // The energies the blow's account differences, in this order: pounder (kinetic +
 // potential), contact, damping / boundary / wall-friction / artificial-stress work (EnergyLedger), then per
-// material kinetic, internal, potential, elastic, viscous heat.
+// material kinetic, internal, potential, elastic, numerical heat (the particles' viscous
+// heat and the tied elements' hourglass work), then the tied elements' nodes: motion,
+// boundary work, damping work (zero without elements).
 std::vector<double> DropSequence::energy_state() const {
   const EnergyLedger& L = sim_.ledger();
   std::vector<double> e{sim_.body_energy(), sim_.contact_energy(), L.damping_J, L.boundary_J, L.wall_friction_J,
                         L.artificial_stress_J};
   const std::vector<MaterialEnergy> me = sim_.material_energies();
   for (size_t k = 0; k < me.size(); ++k)
-    for (double v : {me[k].kinetic, me[k].internal, me[k].potential, me[k].elastic, L.heat_J[k]}) e.push_back(v);
+    for (double v : {me[k].kinetic, me[k].internal, me[k].potential, me[k].elastic, L.heat_J[k] + me[k].hourglass})
+      e.push_back(v);
+  const ElementNodeEnergy n = sim_.element_node_energy();
+  for (double v : {n.motion, n.boundary_work, n.damping_work}) e.push_back(v);
   return e;
 }
 
@@ -328,7 +333,8 @@ void DropSequence::end_impact(BlowRecord& rec) {
   rec.rest_time_s = phase_ == 1 ? sim_.time() - rest_since_ : 0.0;
   const std::vector<double> e1 = energy_state();
   const std::vector<double>& e0 = energy0_;
-  auto d = [&](size_t k) { return e1[k] - e0[k]; };
+  // (a checkpoint from before the elements' terms holds fewer: those count from here)
+  auto d = [&](size_t k) { return k < e0.size() ? e1[k] - e0[k] : 0.0; };
   rec.energy_in_J = -d(0);
   rec.contact_J = d(1);
   rec.damping_J = -d(2);
@@ -347,6 +353,10 @@ void DropSequence::end_impact(BlowRecord& rec) {
     rec.plastic_J[m] = d(k + 1) - d(k + 3) - d(k + 4);
     internal += d(k + 1);
   }
+  const size_t kn = 6 + 5 * nm;  // the tied elements' nodes
+  rec.soil_motion_J += d(kn);
+  rec.radiated_J -= d(kn + 1);
+  rec.damping_J -= d(kn + 2);
   rec.residual_J = rec.energy_in_J + rec.artificial_stress_J - (rec.soil_motion_J + internal + rec.contact_J + rec.radiated_J + rec.damping_J +
                                       rec.wall_friction_J);
 }

@@ -545,12 +545,33 @@ std::vector<MaterialEnergy> Simulation::material_energies() const {
   MaterialEnergies f(P, static_cast<unsigned>(nm), materials_, config_.gravity);
   sums = fixed_order_sums("tamp::energy::materials", P.n_real, static_cast<int>(count), f);
   std::vector<MaterialEnergy> out(nm);
-  for (size_t k = 0; k < nm; ++k) out[k] = {sums[4 * k], sums[4 * k + 1], sums[4 * k + 2], sums[4 * k + 3]};
+  for (size_t k = 0; k < nm; ++k) out[k] = {sums[4 * k], sums[4 * k + 1], sums[4 * k + 2], sums[4 * k + 3], 0.0};
+  if (fem_) {
+    const std::vector<fem::FemMaterialEnergy> fe = fem_->material_energies();
+    for (size_t j = 0; j < fe.size(); ++j) {
+      MaterialEnergy& e = out[fem_deck_material_[j]];
+      e.internal += fe[j].internal + fe[j].hourglass;
+      e.hourglass += fe[j].hourglass;
+      e.elastic += fe[j].elastic;
+    }
+  }
   return out;
 }
 
+ElementNodeEnergy Simulation::element_node_energy() const {
+  if (!fem_) return {};
+  const fem::FemEnergies e = fem_->energies();
+  return {e.kinetic + fem_->potential_energy(config_.gravity), e.boundary_work, e.damping_work, e.tie_work};
+}
+
 double Simulation::accounted_energy() const {
-  return energies().total() + body_energy() + contact_energy() - ledger_.damping_J - ledger_.boundary_J -
+  double elements = 0;
+  if (fem_) {
+    const fem::FemEnergies e = fem_->energies();
+    elements = e.kinetic + fem_->potential_energy(config_.gravity) + e.internal + e.hourglass - e.boundary_work -
+               e.damping_work;
+  }
+  return energies().total() + elements + body_energy() + contact_energy() - ledger_.damping_J - ledger_.boundary_J -
          ledger_.wall_friction_J - ledger_.artificial_stress_J;
 }
 
@@ -692,6 +713,7 @@ Checkpoint Simulation::save_state() {
     put_rows(m.hourglass_force, m.n_elements, c.reals["fem_hourglass_force"]);
     put_rows(m.internal_energy, m.n_elements, c.reals["fem_internal_energy"]);
     put_rows(m.hourglass_energy, m.n_elements, c.reals["fem_hourglass_energy"]);
+    put_rows(m.node_work, m.n_nodes, c.reals["fem_node_work"]);
     c.scalars["fem_time"] = fem_->time();
     c.scalars["fem_steps"] = static_cast<double>(fem_->steps());
     c.scalars["fem_last_dt"] = fem_->last_dt();
@@ -798,6 +820,8 @@ void Simulation::load_state(const Checkpoint& c) {
     get_rows(real("fem_hourglass_force"), "fem_hourglass_force", m.hourglass_force, m.n_elements);
     get_rows(real("fem_internal_energy"), "fem_internal_energy", m.internal_energy, m.n_elements);
     get_rows(real("fem_hourglass_energy"), "fem_hourglass_energy", m.hourglass_energy, m.n_elements);
+    if (c.reals.count("fem_node_work")) get_rows(real("fem_node_work"), "fem_node_work", m.node_work, m.n_nodes);
+    else Kokkos::deep_copy(m.node_work, 0.0);  // a checkpoint from before the elements' energy account
     fem_->set_damping(sph_.damping);
     fem_->set_gravity(sph_.gravity);
     fem_->restore_clock(scalar("fem_time"), static_cast<long>(scalar("fem_steps")), scalar("fem_last_dt"));

@@ -84,6 +84,13 @@ struct EnergyLedger {
 // Energies of the real particles of one material, J (kernels/EnergyAccount.hpp).
 struct MaterialEnergy {
   double kinetic = 0, internal = 0, potential = 0, elastic = 0;
+  double hourglass = 0;  // the tied elements' hourglass work (part of internal)
+};
+
+// Energies of the tied elements' nodes, J: kinetic + gravitational, and the work the
+// non-reflecting boundary, the mass damping and the particles (through the tie) did on them.
+struct ElementNodeEnergy {
+  double motion = 0, boundary_work = 0, damping_work = 0, tie_work = 0;
 };
 
 // Thrown when the run cannot go on (NaN, collapsing time step): the message says what and where.
@@ -128,13 +135,17 @@ class Simulation {
   int material_index(const std::string& name) const;  // index in the deck's materials, -1: none
 
   Energies energies() const;
-  // Per deck material: kinetic, internal, gravitational and elastic strain energy.
+  // Per deck material: kinetic, internal, gravitational and elastic strain energy; with
+  // tied elements, their stress work, hourglass work and elastic energy are added to their
+  // deck material (the nodes' motion is element_node_energy()).
   std::vector<MaterialEnergy> material_energies() const;
+  ElementNodeEnergy element_node_energy() const;
   const EnergyLedger& ledger() const { return ledger_; }
   // The energy of the whole model, which stays constant up to time-integration error:
   // particles (kinetic + internal + potential) + body + contact, minus the work the
   // damping, the non-reflecting boundaries, the wall friction and the artificial stress did
-  // on the particles.
+  // on the particles; with tied elements also their energies, less the work their
+  // boundary and damping did (the tie's work is internal to the whole).
   double accounted_energy() const;
 
   // The rigid body: set its shape and mass once, then place / remove it.

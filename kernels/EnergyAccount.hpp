@@ -89,12 +89,7 @@ struct MaterialEnergies {
     const int k = 4 * material(i);
     const double m = mass(i);
     const MaterialParams& mp = materials(material(i));
-    const double s0 = sigma(i, 0), s1 = sigma(i, 1), s2 = sigma(i, 2), s3 = sigma(i, 3);
-    const double p = (s0 + s1 + s2) / 3.0;
-    const double d0 = s0 - p, d1 = s1 - p, d2 = s2 - p;
-    const double j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) + s3 * s3;
-    const double w = (mp.bulk_modulus > 0 ? p * p / (2.0 * mp.bulk_modulus) : 0.0) +
-                     (mp.shear_modulus > 0 ? j2 / (2.0 * mp.shear_modulus) : 0.0);
+    const double w = mp.elastic_energy_density(sigma(i, 0), sigma(i, 1), sigma(i, 2), sigma(i, 3));
     sum[k + 0] += 0.5 * m * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
     sum[k + 1] += m * internal_energy(i);
     sum[k + 2] += m * gravity * x(i, 1);

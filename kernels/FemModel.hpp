@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "kernels/BoundaryLoads.hpp"
+#include "kernels/DeterministicSum.hpp"
 #include "kernels/FemQuad.hpp"
 
 namespace tamp::fem {
@@ -61,6 +62,17 @@ struct FemEnergies {
   double kinetic = 0;    // J, from the half-step velocities
   double internal = 0;   // J, work of the stresses
   double hourglass = 0;  // J, work of the hourglass forces
+  // Work done on the nodes since the start (FemMesh::node_work), J:
+  double boundary_work = 0;  // by the non-reflecting boundary (< 0: radiated)
+  double damping_work = 0;   // by the mass damping (<= 0)
+  double tie_work = 0;       // by the particles through the tie
+};
+
+// Energies of the elements of one material, J.
+struct FemMaterialEnergy {
+  double internal = 0;   // work of the stresses
+  double hourglass = 0;  // work of the hourglass forces
+  double elastic = 0;    // elastic strain energy of the current stress (MaterialParams::elastic_energy_density)
 };
 
 class FemModel {
@@ -104,6 +116,7 @@ class FemModel {
     mesh_.dashpot = ViewN<double, 2>("fem::dashpot", nn);
     mesh_.spring = ViewN<double, 2>("fem::spring", nn);
     mesh_.f_hold = ViewN<double, 2>("fem::f_hold", nn);
+    mesh_.node_work = ViewN<double, 3>("fem::node_work", nn);
     mesh_.conn = Kokkos::View<int* [4], MemSpace>("fem::conn", ne);
     mesh_.material = View1<int>("fem::material", ne);
     mesh_.stress = ViewN<double, 4>("fem::stress", ne);
@@ -365,6 +378,7 @@ class FemModel {
     upd.x = mesh_.x; upd.x0 = mesh_.x0; upd.v = mesh_.v; upd.f_int = mesh_.f_int; upd.f_ext = mesh_.f_ext;
     upd.f_tie = mesh_.f_tie;
     upd.dashpot = mesh_.dashpot; upd.spring = mesh_.spring; upd.f_hold = mesh_.f_hold;
+    upd.node_work = mesh_.node_work;
     upd.v_bc = mesh_.v_bc; upd.mass = mesh_.mass; upd.bc = mesh_.bc;
     upd.gravity = opt_.gravity;
     upd.damping = opt_.damping;
@@ -389,19 +403,51 @@ class FemModel {
 
   FemEnergies energies() const { return energy_sums(mesh_); }
 
-  // Three plain sums (portable between Kokkos 3.4 and 4.x without a custom reducer).
+  // Sums in a fixed order (kernels/DeterministicSum.hpp): the same on any thread count, so
+  // that an energy account read at a stage's end restarts bit for bit.
   static FemEnergies energy_sums(const FemMesh& mesh) {
-    auto v = mesh.v; auto m = mesh.mass;
+    auto v = mesh.v; auto m = mesh.mass; auto w = mesh.node_work;
     auto ui = mesh.internal_energy; auto uh = mesh.hourglass_energy;
     FemEnergies e;
-    Kokkos::parallel_reduce("tamp::fem::kinetic", Kokkos::RangePolicy<ExecSpace>(0, mesh.n_nodes),
-        KOKKOS_LAMBDA(int i, double& s) { s += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1)); },
-        e.kinetic);
-    Kokkos::parallel_reduce("tamp::fem::internal", Kokkos::RangePolicy<ExecSpace>(0, mesh.n_elements),
-        KOKKOS_LAMBDA(int k, double& s) { s += ui(k); }, e.internal);
-    Kokkos::parallel_reduce("tamp::fem::hourglass", Kokkos::RangePolicy<ExecSpace>(0, mesh.n_elements),
-        KOKKOS_LAMBDA(int k, double& s) { s += uh(k); }, e.hourglass);
+    const auto nodes = fixed_order_sum<4>("tamp::fem::node_energies", mesh.n_nodes, KOKKOS_LAMBDA(int i, double* s) {
+      s[0] += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
+      s[1] += w(i, 0);
+      s[2] += w(i, 1);
+      s[3] += w(i, 2);
+    });
+    const auto elements = fixed_order_sum<2>("tamp::fem::element_energies", mesh.n_elements, KOKKOS_LAMBDA(int k, double* s) {
+      s[0] += ui(k);
+      s[1] += uh(k);
+    });
+    e.kinetic = nodes[0];
+    e.boundary_work = nodes[1];
+    e.damping_work = nodes[2];
+    e.tie_work = nodes[3];
+    e.internal = elements[0];
+    e.hourglass = elements[1];
     return e;
+  }
+  // Gravitational energy of the nodes, sum m g z (z from the mesh's origin), J.
+  double potential_energy(double gravity) const {
+    auto x = mesh_.x; auto m = mesh_.mass;
+    return fixed_order_sum<1>("tamp::fem::potential", mesh_.n_nodes,
+                              KOKKOS_LAMBDA(int i, double* s) { s[0] += m(i) * gravity * x(i, 1); })[0];
+  }
+  // Per mesh material: the stress work, the hourglass work and the elastic energy.
+  std::vector<FemMaterialEnergy> material_energies() const {
+    const int nm = static_cast<int>(materials_host_.size());
+    auto mat = mesh_.material; auto mats = mesh_.materials; auto st = mesh_.stress; auto vol = mesh_.volume;
+    auto ui = mesh_.internal_energy; auto uh = mesh_.hourglass_energy;
+    const std::vector<double> s = fixed_order_sums("tamp::fem::material_energies", mesh_.n_elements, 3 * nm,
+        KOKKOS_LAMBDA(int k, double* sum) {
+          const int j = 3 * mat(k);
+          sum[j] += ui(k);
+          sum[j + 1] += uh(k);
+          sum[j + 2] += vol(k) * mats(mat(k)).elastic_energy_density(st(k, 0), st(k, 1), st(k, 2), st(k, 3));
+        });
+    std::vector<FemMaterialEnergy> out(nm);
+    for (int j = 0; j < nm; ++j) out[j] = {s[3 * j], s[3 * j + 1], s[3 * j + 2]};
+    return out;
   }
 
  private:

@@ -51,6 +51,10 @@ struct FemMesh {
   ViewN<double, 2> dashpot;  // C = rho c A (c_p normal, c_s tangential), N s/m
   ViewN<double, 2> spring;   // K A (K_n = 4G/(3R) normal, K_t = 2G/(3R) tangential), N/m
   ViewN<double, 2> f_hold;   // static force of the removed far field, held, N
+  // Work done on each node since the start, J (the energy account, kernels/FemModel.hpp
+  // FemEnergies): 0 the non-reflecting boundary (held force, dashpots, springs), 1 the mass
+  // damping, 2 the tie's force from the particles.
+  ViewN<double, 3> node_work;
   // elements
   Kokkos::View<int* [4], MemSpace> conn;  // node ids, counter-clockwise
   View1<int> material;                    // index into the material table
@@ -191,6 +195,7 @@ KOKKOS_INLINE_FUNCTION void quad_hourglass_gamma(const double r[4], const double
 struct QuadNodeUpdate {
   ViewN<double, 2> x, x0, v, f_int, f_ext, f_tie, v_bc;
   ViewN<double, 2> dashpot, spring, f_hold;  // viscous-spring boundary (zero off it)
+  ViewN<double, 3> node_work;                // accumulated (FemMesh::node_work)
   View1<double> mass;
   View1<int> bc;
   double gravity = 0, damping = 0, dt_kick = 0, dt = 0;
@@ -198,19 +203,35 @@ struct QuadNodeUpdate {
     const double inv_m = 1.0 / mass(i);
     // Boundary force from the last half-step velocity (explicit dashpot) and the
     // displacement from the reference configuration.
-    double fb[2];
-    for (int c = 0; c < 2; ++c)
-      fb[c] = f_tie(i, c) + f_hold(i, c) - dashpot(i, c) * v(i, c) - spring(i, c) * (x(i, c) - x0(i, c));
-    const double a_r = (f_ext(i, 0) + fb[0] - f_int(i, 0)) * inv_m;
-    const double a_z = (f_ext(i, 1) + fb[1] - f_int(i, 1)) * inv_m - gravity;
+    double fb[2], ft[2];
+    for (int c = 0; c < 2; ++c) {
+      fb[c] = f_hold(i, c) - dashpot(i, c) * v(i, c) - spring(i, c) * (x(i, c) - x0(i, c));
+      ft[c] = f_tie(i, c);
+    }
+    const double a_r = (f_ext(i, 0) + fb[0] + ft[0] - f_int(i, 0)) * inv_m;
+    const double a_z = (f_ext(i, 1) + fb[1] + ft[1] - f_int(i, 1)) * inv_m - gravity;
     const double c0 = 1.0 - 0.5 * damping * dt_kick, c1 = 1.0 / (1.0 + 0.5 * damping * dt_kick);
-    double vr = (c0 * v(i, 0) + dt_kick * a_r) * c1;
-    double vz = (c0 * v(i, 1) + dt_kick * a_z) * c1;
+    const double v_old[2] = {v(i, 0), v(i, 1)};
+    double vr = (c0 * v_old[0] + dt_kick * a_r) * c1;
+    double vz = (c0 * v_old[1] + dt_kick * a_z) * c1;
     const int flags = bc(i);
     if (flags & BC_R) vr = v_bc(i, 0);
     if (flags & BC_Z) vz = v_bc(i, 1);
     v(i, 0) = vr;
     v(i, 1) = vz;
+    // The work of this kick, with the mean of the velocities before and after it (the
+    // kinetic energy changes by exactly the sum of these over all forces; the damping
+    // term is -d (v_old + v_new)/2 per unit mass in the form above). A prescribed
+    // component does no work here: its reaction is not a force of the node update.
+    const double v_new[2] = {vr, vz};
+    const int fixed[2] = {flags & BC_R, flags & BC_Z};
+    for (int c = 0; c < 2; ++c) {
+      if (fixed[c]) continue;
+      const double u = 0.5 * (v_old[c] + v_new[c]);
+      node_work(i, 0) += dt_kick * fb[c] * u;
+      node_work(i, 1) -= dt_kick * mass(i) * damping * u * u;
+      node_work(i, 2) += dt_kick * ft[c] * u;
+    }
     x(i, 0) += dt * vr;
     x(i, 1) += dt * vz;
   }

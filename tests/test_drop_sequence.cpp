@@ -273,9 +273,19 @@ TEST_CASE("Drop sequence: the CI scenario with elements outside the clay zone ba
   REQUIRE(one.blows.size() == full.blows.size());
   for (size_t k = 0; k < full.blows.size(); ++k) {
     const double rel = full.blows[k].crater_depth_m / one.blows[k].crater_depth_m - 1;
-    std::printf("[drop, elements] blow %zu: crater %.4f m subcycled, %.4f m one step (%+.2f %%)\n", k + 1,
-                full.blows[k].crater_depth_m, one.blows[k].crater_depth_m, 100 * rel);
+    std::printf("[drop, elements] blow %zu: crater %.4f m subcycled, %.4f m one step (%+.2f %%); energy residual "
+                "%+.2f %% / %+.2f %% of the blow\n", k + 1,
+                full.blows[k].crater_depth_m, one.blows[k].crater_depth_m, 100 * rel,
+                100 * full.blows[k].residual_J / full.blows[k].energy_in_J,
+                100 * one.blows[k].residual_J / one.blows[k].energy_in_J);
     CHECK(std::fabs(rel) < 0.02);
+    // The account books the elements too (docs/drop-sequence.md "Energy account"); what the
+    // tie does not conserve is in the residual. Measured 2026-12-03: -0.54 / +0.79 / +3.01 %
+    // subcycled, -0.50 / +0.89 / +3.02 % one step (all particles: -0.42 / -1.15 / -0.69 %).
+    // The issue's 2 % is not met on blow 3 (docs/coupling.md); this bound (5 %) only guards
+    // against losing the elements from the account again (particles only: 3.8-8.1 % on the lab).
+    CHECK(std::fabs(full.blows[k].residual_J) < 0.05 * full.blows[k].energy_in_J);
+    CHECK(std::fabs(one.blows[k].residual_J) < 0.05 * one.blows[k].energy_in_J);
   }
   tamp::log::set_level(tamp::log::Level::Info);
 }

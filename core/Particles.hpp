@@ -118,6 +118,9 @@ struct Particles {
 
   void reserve(int new_capacity);        // grows every view, keeping contents
   void fill_new(int begin, int end);     // rows [begin, end) of every field: a new particle's values
+  // Renumbers the real particles: row i of every field takes the old row old_of_new(i),
+  // i < n_real (a permutation of [0, n_real); the rows beyond are left as they are).
+  void permute_real(const View1<int>& old_of_new);
 };
 
 inline void Particles::reserve(int new_capacity) {
@@ -140,6 +143,34 @@ inline void Particles::fill_new(int begin, int end) {
     else
       Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(begin, end), Kokkos::ALL), value);
   });
+}
+
+// Row i of `out` takes row old_of_new(i) of `in` (one field of Particles::permute_real; a
+// functor, not a lambda, since CUDA does not take device lambdas inside generic lambdas).
+template <class V>
+struct GatherRows {
+  V out, in;
+  View1<int> old_of_new;
+  KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
+    if constexpr (V::rank == 1) {
+      out(i) = in(old_of_new(i));
+    } else {
+      for (int c = 0; c < static_cast<int>(out.extent(1)); ++c) out(i, c) = in(old_of_new(i), c);
+    }
+  }
+};
+
+// Rows [0, n) of a particle view renumbered: row i takes the old row old_of_new(i).
+template <class V>
+void permute_rows(V& view, const View1<int>& old_of_new, int n) {
+  V old(std::string("tamp::permute_copy"), view.extent(0));  // same shape: a plain copy
+  Kokkos::deep_copy(old, view);
+  Kokkos::parallel_for("tamp::permute_rows", Kokkos::RangePolicy<ExecSpace>(0, n), GatherRows<V>{view, old, old_of_new});
+}
+
+inline void Particles::permute_real(const View1<int>& old_of_new) {
+  for_each_field([&](const FieldInfo&, auto& view, auto) { permute_rows(view, old_of_new, n_real); });
+  Kokkos::fence();
 }
 
 }  // namespace tamp

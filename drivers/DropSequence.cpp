@@ -398,7 +398,9 @@ void DropSequence::backfill(const Stage& s) {
     add.push_back({cr[c], cz[c], backfill_material_});
     mass += m;
   }
-  const double added = sim_.add_particles(add);
+  const Simulation::Added result = sim_.add_particles(add);
+  for (int& k : tracer_index_) k = result.new_index_of_old[k];  // the particles were put in cell order
+  const double added = result.mass_kg;
   blow_record(s.blow).aggregate_added_kg += added;
   log::info("blow " + std::to_string(s.blow) + ": backfill of " + std::to_string(add.size()) + " particles, " +
             std::to_string(added) + " kg");

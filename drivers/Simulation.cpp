@@ -272,8 +272,8 @@ void Simulation::place_body(double r0, double z0, double v_r, double v_z) {
   damp_back_ = 0.0;        // from the full-step velocities
 }
 
-double Simulation::add_particles(const std::vector<NewParticle>& list) {
-  if (list.empty()) return 0.0;
+Simulation::Added Simulation::add_particles(const std::vector<NewParticle>& list) {
+  if (list.empty()) return {};
   Particles& P = particles_;
   // The new particles go after the real ones, over the tie particles' slots; the tie
   // particles move up and are refilled from the elements below.
@@ -300,6 +300,8 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
                           PlaceNewParticles(P, n0, hr_dev, hz_dev, hm_dev, materials_, config_.sph), added);
   P.n_real = n1;
   P.n_total = n1 + P.n_tie;
+  Added result{added, sort_by_cell()};
+  result.new_index_of_old.resize(n0);  // the new particles' numbers are of no use to a caller
   if (fem_) {
     sync_tie_kinematics();
     sync_tie_stress();
@@ -308,7 +310,43 @@ double Simulation::add_particles(const std::vector<NewParticle>& list) {
   update_pair_stress();
   compute_acceleration();
   damp_back_ = 0.0;  // from the full-step velocities
-  return added;
+  return result;
+}
+
+std::vector<int> Simulation::sort_by_cell() {
+  Particles& P = particles_;
+  const int n = P.n_real;
+  std::vector<int> new_of_old(n);
+  if (n == 0) return new_of_old;
+  auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), Kokkos::subview(P.x, std::make_pair(0, n), Kokkos::ALL));
+  double r0 = x(0, 0), z0 = x(0, 1), r1 = r0;
+  for (int i = 1; i < n; ++i) {
+    r0 = std::min(r0, x(i, 0));
+    r1 = std::max(r1, x(i, 0));
+    z0 = std::min(z0, x(i, 1));
+  }
+  const double cell = 2.0 * sph_.h + skin_;
+  const long nr = static_cast<long>((r1 - r0) / cell) + 1;
+  std::vector<long> key(n);
+  for (int i = 0; i < n; ++i)
+    key[i] = static_cast<long>((x(i, 1) - z0) / cell) * nr + static_cast<long>((x(i, 0) - r0) / cell);
+  std::vector<int> old_of_new(n);
+  for (int i = 0; i < n; ++i) old_of_new[i] = i;
+  std::stable_sort(old_of_new.begin(), old_of_new.end(), [&](int a, int b) { return key[a] < key[b]; });
+  View1<int> order("tamp::cell_order", n);
+  auto order_h = Kokkos::create_mirror_view(order);
+  for (int i = 0; i < n; ++i) {
+    order_h(i) = old_of_new[i];
+    new_of_old[old_of_new[i]] = i;
+  }
+  Kokkos::deep_copy(order, order_h);
+  P.permute_real(order);
+  for (const auto& part : acceleration_parts())
+    if (static_cast<int>(part.second->extent(0)) >= n) permute_rows(*part.second, order, n);
+  if (static_cast<int>(a_wall_.extent(0)) >= n) permute_rows(a_wall_, order, n);
+  Kokkos::fence();
+  rebuild_lists();
+  return new_of_old;
 }
 
 double Simulation::body_energy() const { return body_.energy(config_.gravity); }

@@ -167,9 +167,19 @@ class Simulation {
   }
   double damping() const { return sph_.damping; }
 
-  // Appends particles at rest with zero stress, each of ring mass rho 2 pi r dp^2, and
-  // rebuilds the lists; returns the mass added (kg).
-  double add_particles(const std::vector<NewParticle>& list);
+  // Appends particles at rest with zero stress, each of ring mass rho 2 pi r dp^2, puts
+  // every real particle in cell order again (sort_by_cell) and rebuilds the lists.
+  struct Added {
+    double mass_kg = 0;                 // the mass added
+    std::vector<int> new_index_of_old;  // the renumbering of the particles that were there
+  };
+  Added add_particles(const std::vector<NewParticle>& list);
+  // Renumbers the real particles in the order of the cells (2h + skin wide, rows of r in
+  // z, each cell in the old order) so that the pair loops read neighbours close in
+  // memory: new particles are appended, and flow scrambles the order over the blows.
+  // The state is only renumbered (accelerations and their parts too); the lists are
+  // rebuilt. Returns the new index of every old particle.
+  std::vector<int> sort_by_cell();
   ParticleSnapshot snapshot() const;
 
   // The full restartable state of the real particles (positions, velocities, the

@@ -141,6 +141,10 @@ void Simulation::build_materials() {
   auto h = Kokkos::create_mirror_view(materials_);
   for (size_t k = 0; k < materials_host_.size(); ++k) h(k) = materials_host_[k];
   Kokkos::deep_copy(materials_, h);
+  wave_speeds_ = Kokkos::View<double*, MemSpace>("tamp::wave_speeds", materials_host_.size());
+  auto c = Kokkos::create_mirror_view(wave_speeds_);
+  for (size_t k = 0; k < materials_host_.size(); ++k) c(k) = materials_host_[k].wave_speed();
+  Kokkos::deep_copy(wave_speeds_, c);
 }
 
 // Particles on a regular grid of spacing dp in each block (centres at half spacings), ring
@@ -205,7 +209,7 @@ void Simulation::compute_acceleration() {
     }
   {
     Timed t(*this, &StepProfile::acceleration);
-    Acceleration f(P, neighbours_, pair_gradient_factor_, materials_, sph_, artificial_stress_factors_);
+    Acceleration f(P, neighbours_, pair_gradient_factor_, materials_, sph_, artificial_stress_factors_, wave_speeds_);
     f.a_wall = a_wall_;
     f.a_art = a_art_;
     f.fixed_walls = fixed_walls_ ? 1 : 0;

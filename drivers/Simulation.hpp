@@ -242,6 +242,7 @@ class Simulation {
   SphParams sph_;
   std::vector<MaterialParams> materials_host_;
   Kokkos::View<MaterialParams*, MemSpace> materials_;
+  Kokkos::View<double*, MemSpace> wave_speeds_;  // m/s, per material (MaterialParams::wave_speed)
   Particles particles_;
   MirrorGhosts ghosts_;
   MirrorPlanes non_reflecting_;  // boundaries with Lysmer dashpots (no mirror particles)

@@ -185,14 +185,20 @@ struct Acceleration {
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
   Kokkos::View<const double*, MemSpace> artificial_stress_factors;  // (W(q)/W(dp))^n tabulated, see below
+  // P-wave speed of each material (m/s), MaterialParams::wave_speed() computed once: the
+  // viscosity of every approaching pair needs its neighbour's, and a square root and a
+  // division per pair were measurable in the step.
+  Kokkos::View<const double*, MemSpace> wave_speeds;
   int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
 
   // Built by name; the parts written apart (a_wall, a_art) and fixed_walls are set by the
   // caller by name.
   Acceleration(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_in,
                const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
-               const Kokkos::View<const double*, MemSpace>& artificial_stress_factors_in)
-      : pair_gradient_factor(pair_gradient_factor_in), materials(materials_in), p(p_in), artificial_stress_factors(artificial_stress_factors_in) {
+               const Kokkos::View<const double*, MemSpace>& artificial_stress_factors_in,
+               const Kokkos::View<const double*, MemSpace>& wave_speeds_in)
+      : pair_gradient_factor(pair_gradient_factor_in), materials(materials_in), p(p_in),
+        artificial_stress_factors(artificial_stress_factors_in), wave_speeds(wave_speeds_in) {
     x = P.x; v = P.v; a = P.a; a_ext = P.a_ext; flags = P.flags; mass = P.mass; rho = P.rho;
     du_visc = P.du_visc; sigma = P.sigma; pair_stress = P.pair_stress; art_stress = P.art_stress;
     material = P.material; hoop_factor = P.hoop_factor;
@@ -207,7 +213,7 @@ struct Acceleration {
     const double Sa_rr = sigma(i, 0) * ia2, Sa_zz = sigma(i, 1) * ia2, Sa_rz = sigma(i, 3) * ia2;
     const double Ra_rr = art_stress(i, 0), Ra_zz = art_stress(i, 1), Ra_rz = art_stress(i, 2);
     const bool Ra_on = p.artificial_stress_epsilon > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
-    const double ca = materials(material(i)).wave_speed();
+    const double ca = wave_speeds(material(i));
     double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
       const double f = pair_gradient_factor(k);
@@ -248,7 +254,7 @@ struct Acceleration {
         const double r2 = dr * dr + dz * dz;
         const double mu = p.h * vdotx / (r2 + 0.01 * p.h * p.h);
         const double rhob = rho(b);
-        const double cb = materials(material(b)).wave_speed();
+        const double cb = wave_speeds(material(b));
         const double Pi = ring * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
         Trr -= Pi;
         Tzz -= Pi;

@@ -325,6 +325,21 @@ HeapShape heap_shape(const Simulation& sim, double dp, double domain_radius) {
   return h;
 }
 
+// The particles of a heap as CSV (r, z, velocity, density, stress, mass), for a look: written
+// where the environment variable `var` points, if it is set (docs/drop-sequence.md).
+void dump_heap(const Simulation& sim, const char* var) {
+  const char* path = std::getenv(var);
+  if (!path) return;
+  const auto s = sim.snapshot();
+  FILE* f = std::fopen(path, "w");
+  if (!f) return;
+  std::fprintf(f, "r,z,vr,vz,density,srr,szz,stt,srz,mass\n");
+  for (size_t i = 0; i < s.r.size(); ++i)
+    std::fprintf(f, "%.6e,%.6e,%.4e,%.4e,%.2f,%.4e,%.4e,%.4e,%.4e,%.4e\n", s.r[i], s.z[i], s.v_r[i], s.v_z[i],
+                 s.density[i], s.s_rr[i], s.s_zz[i], s.s_tt[i], s.s_rz[i], s.mass[i]);
+  std::fclose(f);
+}
+
 }  // namespace
 
 TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stress, and take load again once "
@@ -418,6 +433,7 @@ TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and com
     Simulation sim(aggregate_cone(beta, R0, dp, W));
     const HeapShape h0 = heap_shape(sim, dp, W);
     sim.advance_to(time);
+    if (beta == 42.0) dump_heap(sim, "TAMP_CONE_DUMP");
     const HeapShape h = heap_shape(sim, dp, W);
     std::printf("[heap] %.0f deg cone: height %.3f -> %.3f m (%+.1f %%), flank %.1f deg, fastest particle %.2e m/s\n",
                 beta, h0.height, h.height, 100 * (h.height / h0.height - 1), h.flank_deg, h.vmax);
@@ -446,34 +462,40 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   // Rest: every particle slower than 5 mm/s at the end.
   tamp::log::set_level(tamp::log::Level::Quiet);
   // For the study in docs/drop-sequence.md, the environment may change the spacing, the pour
-  // radius, the friction angle, the cohesion and the separation density (0 = never).
+  // radius, the friction angle, the cohesion, the separation density (0 = never), the rows
+  // poured at once, the inner radius of an annular pour (a ridge) and write the particles.
   auto knob = [](const char* name, double value) { return std::getenv(name) ? std::atof(std::getenv(name)) : value; };
   const double dp = knob("TAMP_HEAP_DP", 0.01);
-  const double W = 0.5, R_pour = knob("TAMP_HEAP_RPOUR", 0.1);
+  const double R_in = knob("TAMP_HEAP_RIN", 0.0);  // > 0: a ridge poured on an annulus (almost plane strain)
+  const double W = 0.5 + R_in, R_pour = knob("TAMP_HEAP_RPOUR", 0.1);
   const int rows = static_cast<int>(std::lround(0.25 / dp));
   Config cfg = aggregate_cone(45.0, R_pour, dp, W);
   cfg.blocks.resize(1);  // the first row: a disk one spacing thick
-  cfg.blocks[0].r_max = R_pour;
+  cfg.blocks[0].r_min = R_in;
+  cfg.blocks[0].r_max = R_in + R_pour;
   MaterialSpec& agg = cfg.materials[0];
   agg.phi_deg = knob("TAMP_HEAP_PHI", agg.phi_deg);
   agg.cohesion = knob("TAMP_HEAP_C", agg.cohesion);
   agg.separation_density = knob("TAMP_HEAP_SEPARATION", agg.separation_density);
   Simulation sim(cfg);
-  const int nr = static_cast<int>(std::lround(R_pour / dp));
-  for (int row = 1; row < rows; ++row) {
-    sim.advance_to(sim.time() + 0.05);
+  const int nr = static_cast<int>(std::lround(R_pour / dp)), k0 = static_cast<int>(std::lround(R_in / dp));
+  const int per_pour = static_cast<int>(knob("TAMP_HEAP_ROWS_PER_POUR", 1));
+  for (int row = 1; row < rows; row += per_pour) {
+    sim.advance_to(sim.time() + 0.05 * per_pour);
     const auto s = tamp::testing::host_state(sim);
     std::vector<double> top(nr, 0.0);
     for (size_t i = 0; i < s.r.size(); ++i) {
-      const int k = static_cast<int>(s.r[i] / dp);
-      if (k < nr) top[k] = std::max(top[k], s.z[i]);
+      const int k = static_cast<int>(s.r[i] / dp) - k0;
+      if (k >= 0 && k < nr) top[k] = std::max(top[k], s.z[i]);
     }
     std::vector<tamp::NewParticle> add;
-    for (int k = 0; k < nr; ++k) add.push_back({(k + 0.5) * dp, top[k] + dp, 0});
+    for (int j = 0; j < per_pour && row + j < rows; ++j)
+      for (int k = 0; k < nr; ++k) add.push_back({R_in + (k + 0.5) * dp, top[k] + (1 + j) * dp, 0});
     sim.add_particles(add);
   }
   sim.advance_to(sim.time() + 1.5);
   const HeapShape h = heap_shape(sim, dp, W);
+  dump_heap(sim, "TAMP_HEAP_DUMP");
   std::printf("[heap] poured: %zu particles, height %.3f m, flank %.1f deg (%d bands), fastest particle %.2e m/s\n",
               sim.snapshot().r.size(), h.height, h.flank_deg, h.bands, h.vmax);
   CHECK(std::fabs(h.flank_deg - 47.0) < 3.0);

@@ -477,7 +477,9 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   agg.phi_deg = knob("TAMP_HEAP_PHI", agg.phi_deg);
   agg.cohesion = knob("TAMP_HEAP_C", agg.cohesion);
   agg.separation_density = knob("TAMP_HEAP_SEPARATION", agg.separation_density);
+  cfg.sph.kernel_correction = knob("TAMP_HEAP_KERNEL_CORRECTION", 0) != 0;
   Simulation sim(cfg);
+  sim.set_damping(knob("TAMP_HEAP_DAMPING", 0.0));  // 1/s, mass-proportional, as the lab's settle phases
   const int nr = static_cast<int>(std::lround(R_pour / dp)), k0 = static_cast<int>(std::lround(R_in / dp));
   const int per_pour = static_cast<int>(knob("TAMP_HEAP_ROWS_PER_POUR", 1));
   for (int row = 1; row < rows; row += per_pour) {
@@ -493,7 +495,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
       for (int k = 0; k < nr; ++k) add.push_back({R_in + (k + 0.5) * dp, top[k] + (1 + j) * dp, 0});
     sim.add_particles(add);
   }
-  sim.advance_to(sim.time() + 1.5);
+  sim.advance_to(sim.time() + knob("TAMP_HEAP_SETTLE", 1.5));
   const HeapShape h = heap_shape(sim, dp, W);
   dump_heap(sim, "TAMP_HEAP_DUMP");
   std::printf("[heap] poured: %zu particles, height %.3f m, flank %.1f deg (%d bands), fastest particle %.2e m/s\n",

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <sstream>
 #include <type_traits>
 
@@ -277,7 +278,12 @@ void Simulation::place_body(double r0, double z0, double v_r, double v_z) {
 }
 
 Simulation::Added Simulation::add_particles(const std::vector<NewParticle>& list) {
-  if (list.empty()) return {};
+  if (list.empty()) {  // nothing added, nothing renumbered: the identity, so callers can always remap
+    Added none;
+    none.new_index_of_old.resize(particles_.n_real);
+    std::iota(none.new_index_of_old.begin(), none.new_index_of_old.end(), 0);
+    return none;
+  }
   Particles& P = particles_;
   // The new particles go after the real ones, over the tie particles' slots; the tie
   // particles move up and are refilled from the elements below.

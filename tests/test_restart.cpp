@@ -102,6 +102,17 @@ TEST_CASE("Restart: particles put in cell order keep their whole state, and the 
   int moved = 0;
   for (int i = 0; i < n; ++i) moved += new_of_old[i] != i;
   CHECK(moved > n / 2);  // the generator's order (columns of the lattice) is not the cells'
+  // A backfill that finds no free site adds nothing: the renumbering is then the identity,
+  // whole (an empty one made the lab run's blow-34 backfill at 10 mm read out of bounds).
+  {
+    Simulation idle(restart_config());
+    const Simulation::Added none = idle.add_particles({});
+    REQUIRE(static_cast<int>(none.new_index_of_old.size()) == idle.particles().n_real);
+    bool identity = true;
+    for (int i = 0; i < idle.particles().n_real; ++i) identity = identity && none.new_index_of_old[i] == i;
+    CHECK(identity);
+    CHECK(none.mass_kg == 0.0);
+  }
   const Checkpoint after = sorted.save_state();
   int arrays = 0;
   for (const auto& [name, a] : before.reals) {

@@ -12,6 +12,7 @@
 
 #include "SphTestUtil.hpp"
 #include "core/Log.hpp"
+#include "core/Output.hpp"
 #include "drivers/DropSequence.hpp"
 
 using tamp::BlockSpec;
@@ -331,13 +332,11 @@ void dump_heap(const Simulation& sim, const char* var) {
   const char* path = std::getenv(var);
   if (!path) return;
   const auto s = sim.snapshot();
-  FILE* f = std::fopen(path, "w");
-  if (!f) return;
-  std::fprintf(f, "r,z,vr,vz,density,srr,szz,stt,srz,mass\n");
+  std::vector<std::vector<double>> rows;
   for (size_t i = 0; i < s.r.size(); ++i)
-    std::fprintf(f, "%.6e,%.6e,%.4e,%.4e,%.2f,%.4e,%.4e,%.4e,%.4e,%.4e\n", s.r[i], s.z[i], s.v_r[i], s.v_z[i],
-                 s.density[i], s.s_rr[i], s.s_zz[i], s.s_tt[i], s.s_rz[i], s.mass[i]);
-  std::fclose(f);
+    rows.push_back({s.r[i], s.z[i], s.v_r[i], s.v_z[i], s.density[i], s.s_rr[i], s.s_zz[i], s.s_tt[i], s.s_rz[i],
+                    s.mass[i]});
+  tamp::write_csv(path, {"r", "z", "vr", "vz", "density", "srr", "szz", "stt", "srz", "mass"}, rows);
 }
 
 }  // namespace

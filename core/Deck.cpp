@@ -824,7 +824,75 @@ std::string wall_text(const WallSpec& w, const char* pos_key) {
 
 // ---------------------------------------------------------------- public API
 
-Config parse_deck(const std::string& toml_text, const std::string& file_label) {
+namespace {
+
+// One --set KEY=VALUE applied to the parsed deck (see Deck.hpp). The value is parsed as
+// the right-hand side of a TOML key, so the deck's own types apply; the validator then
+// checks it where it lands.
+void apply_override(toml::table& root, const std::string& setting, const std::string& deck) {
+  const auto fail = [&](const std::string& why) {
+    throw DeckError(printable(deck) + ": --set '" + printable(setting) + "': " + why);
+  };
+  const auto eq = setting.find('=');
+  if (eq == std::string::npos || eq == 0)
+    fail("expected KEY=VALUE, e.g. sph.spacing=0.005, fem.enabled=true or clay.Su=12000");
+  const std::string key = setting.substr(0, eq), text = setting.substr(eq + 1);
+  std::vector<std::string> path;
+  for (std::size_t from = 0;;) {
+    const auto dot = key.find('.', from);
+    path.push_back(key.substr(from, dot == std::string::npos ? std::string::npos : dot - from));
+    if (path.back().empty()) fail("the key '" + printable(key) + "' has an empty part");
+    if (dot == std::string::npos) break;
+    from = dot + 1;
+  }
+  toml::table value_doc;
+  const std::string value_error =
+      "the value '" + printable(text) + "' is not a TOML value; allowed: a number (0.005), true or false, "
+      "a quoted string (\"fill\") or an array ([0.3, 0.5])";
+#if TOML_EXCEPTIONS
+  try {
+    value_doc = toml::parse("value = " + text);
+  } catch (const toml::parse_error&) {
+    fail(value_error);
+  }
+#else
+  toml::parse_result res = toml::parse("value = " + text);
+  if (!res) fail(value_error);
+  value_doc = std::move(res).table();
+#endif
+  if (value_doc.size() != 1) fail(value_error);  // e.g. "1\nother = 2"
+  const toml::node* value = value_doc.get("value");
+  if (const auto* f = value->as_floating_point(); f && !std::isfinite(f->get()))
+    fail("the value '" + printable(text) + "' is not finite");
+
+  // <material name>.<key>: the [[materials]] entry of that name.
+  toml::table* target = &root;
+  std::size_t first = 0;
+  if (path.size() == 2)
+    if (toml::array* mats = root["materials"].as_array())
+      for (toml::node& m : *mats)
+        if (toml::table* t = m.as_table(); t && t->get("name") && t->get("name")->value<std::string>() == path[0]) {
+          target = t;
+          first = 1;
+        }
+  for (std::size_t i = first; i + 1 < path.size(); ++i) {
+    toml::node* next = target->get(path[i]);
+    if (!next) {
+      target->insert(path[i], toml::table{});
+      next = target->get(path[i]);
+    }
+    if (!next->is_table())
+      fail("'" + printable(path[i]) + "' is a " + type_name(*next) + " in the deck, not a table that holds '" +
+           printable(path[i + 1]) + "'");
+    target = next->as_table();
+  }
+  target->insert_or_assign(path.back(), *value);
+}
+
+}  // namespace
+
+Config parse_deck(const std::string& toml_text, const std::string& file_label,
+                  const std::vector<std::string>& overrides) {
   toml::table root;
 #if TOML_EXCEPTIONS
   try {
@@ -843,10 +911,18 @@ Config parse_deck(const std::string& toml_text, const std::string& file_label) {
   }
   root = std::move(res).table();
 #endif
-  return build(root, file_label);
+  if (overrides.empty()) return build(root, file_label);
+  for (const auto& o : overrides) apply_override(root, o, file_label);
+  try {
+    return build(root, file_label);
+  } catch (const DeckError& e) {
+    std::string sets;
+    for (const auto& o : overrides) sets += (sets.empty() ? "" : ", ") + printable(o);
+    throw DeckError(std::string(e.what()) + " (with --set " + sets + ")");
+  }
 }
 
-Config load_deck(const std::string& path) {
+Config load_deck(const std::string& path, const std::vector<std::string>& overrides) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::exists(path, ec)) throw DeckError(printable(path) + ": the deck file does not exist");
@@ -856,7 +932,7 @@ Config load_deck(const std::string& path) {
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw DeckError(printable(path) + ": cannot read the deck file");
-  return parse_deck(text.str(), path);
+  return parse_deck(text.str(), path, overrides);
 }
 
 std::string to_toml(const Config& c) {

@@ -19,6 +19,7 @@
 #pragma once
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/Config.hpp"
 
@@ -29,11 +30,20 @@ struct DeckError : std::runtime_error {
 };
 
 // Reads and validates the deck at `path`; Config::source_file is set to `path`.
-Config load_deck(const std::string& path);
+// `overrides` are command-line KEY=VALUE settings (`tamp run --set`), applied to the parsed
+// TOML before validation, so that an overridden value is checked like a written one:
+//   KEY   a dotted path of tables and a key: sph.spacing, fem.enabled, schedule.relax_time,
+//         boundaries.bottom.type, gravity; or <material name>.<key>: clay.Su, aggregate.phi_deg
+//   VALUE a TOML value: 0.005, true, "fill", [0.3, 0.5]
+// A KEY=VALUE that is not of this form, a path through a value that is not a table, or a
+// value the deck does not allow there throws DeckError naming the deck, the setting and
+// what is allowed.
+Config load_deck(const std::string& path, const std::vector<std::string>& overrides = {});
 
 // Validates TOML text; `file_label` prefixes every error message and becomes
-// Config::source_file.
-Config parse_deck(const std::string& toml_text, const std::string& file_label);
+// Config::source_file. `overrides` as for load_deck.
+Config parse_deck(const std::string& toml_text, const std::string& file_label,
+                  const std::vector<std::string>& overrides = {});
 
 // A complete deck (every value written out, doubles with round-trip precision) that
 // parse_deck() turns back into the same Config, apart from source_file.

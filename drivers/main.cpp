@@ -141,8 +141,8 @@ void check_memory(const Config& cfg, const std::string& deck) {
                     fmt("%.3g", have / 1e9) + " GB available (allowed: a larger spacing or smaller blocks)");
 }
 
-int cmd_check(const std::string& deck) {
-  Config cfg = load_deck(deck);
+int cmd_check(const std::string& deck, const std::vector<std::string>& sets) {
+  Config cfg = load_deck(deck, sets);
   check_memory(cfg, deck);
   Simulation sim(cfg);
   print_plan(cfg, sim, std::cout);
@@ -192,12 +192,8 @@ void write_profile(const std::string& out, const Simulation& sim) {
 
 int cmd_run(const std::string& deck, const std::string& out, bool force, const std::string& restart,
             int stop_after, const std::vector<std::string>& sets, bool profile, bool forward) {
-  Config cfg = load_deck(deck);  // validated before any work
+  Config cfg = load_deck(deck, sets);  // --set applied to the deck, all validated before any work
   check_memory(cfg, deck);
-  for (const auto& s : sets) {   // --set material.key=value (e.g. clay.crush_pressure=30000)
-    const auto [key, value] = parse_set(s);
-    tamp::set_param(cfg, key, value);
-  }
   tamp::Checkpoint resume;
   if (!restart.empty()) {
     if (!fs::exists(restart)) {
@@ -421,7 +417,9 @@ int main(int argc, char** argv) {
   run->add_option("--restart", restart,
                   "Resume from a checkpoint of an earlier run of the same deck: DIR/checkpoint.h5, or for a "
                   "drop sequence DIR/checkpoints/<stage>.h5 (any stage) or DIR/checkpoints/interrupted.h5");
-  run->add_option("--set", sets, "Override a parameter: KEY=VALUE, e.g. clay.Su=12000 or clay.crush_pressure=30000");
+  run->add_option("--set", sets,
+                  "Override a deck value: KEY=VALUE, e.g. sph.spacing=0.005, fem.enabled=true, clay.Su=12000 "
+                  "(a dotted path of tables, or <material>.<key>; the value in TOML)");
   run->add_option("--stop-after-stage", stop_after,
                   "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
   bool profile = false;
@@ -431,6 +429,7 @@ int main(int argc, char** argv) {
   run->add_flag("--profile", profile, "Time each part of the step (fences between parts) and write profile.csv");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
+  check->add_option("--set", sets, "Override a deck value, as for run: KEY=VALUE, e.g. sph.spacing=0.005");
   std::string data_path, run_dir, params, effect = "none", material = "clay";
   double noise = 0.02;
   unsigned seed = 1;
@@ -499,7 +498,7 @@ int main(int argc, char** argv) {
   int rc = 0;
   try {
     if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile, forward);
-    if (*check) rc = cmd_check(deck);
+    if (*check) rc = cmd_check(deck, sets);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method, jobs, resume);
     if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume, method, max_steps);

@@ -728,3 +728,45 @@ TEST_CASE("Deck: errors name the right key and print the value readably", "[deck
     CHECK_THAT(msg, Catch::StartsWith("odd\\x0aname.toml: gravity = -1 is out of range"));
   }
 }
+
+TEST_CASE("Deck: --set overrides land where the deck would put them and are validated there", "[deck][cli]") {
+  // Values of every TOML kind, a table path, a new table, an inline table, a material by name.
+  const Config c = parse_deck(kValidDeck, "valid.toml",
+                              {"sph.spacing=0.0025", "sph.kernel_correction=true", "run.name=\"set\"", "gravity=9.81",
+                               "clay.Su=12000", "sand.phi_deg=33", "boundaries.bottom.type=\"roller\"",
+                               "contact.decay=5"});
+  CHECK(c.sph.spacing == 0.0025);
+  CHECK(c.sph.kernel_correction == true);
+  CHECK(c.run.name == "set");
+  CHECK(c.gravity == 9.81);
+  CHECK(c.materials[1].cohesion == 12000.0);
+  CHECK(c.materials[0].phi_deg == 33.0);
+  CHECK(c.bottom.type == WallType::Roller);
+  CHECK(c.contact.decay == 5.0);
+  CHECK(c.sph.h_factor == 1.5);  // the rest as written
+
+  // A refused setting: exit code 2 in the program (DeckError), naming the deck, the setting
+  // and what is allowed.
+  auto error_of = [](const std::vector<std::string>& sets) {
+    try {
+      parse_deck(kValidDeck, "deck.toml", sets);
+    } catch (const DeckError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string value = error_of({"sph.spacing=abc"});
+  CHECK(value.find("deck.toml: --set 'sph.spacing=abc': the value 'abc' is not a TOML value") == 0);
+  CHECK(error_of({"sph.spacing=1e999"}).find("is not a TOML value") != std::string::npos);
+  CHECK(error_of({"sph.spacing"}).find("expected KEY=VALUE") != std::string::npos);
+  CHECK(error_of({"sph..spacing=1"}).find("has an empty part") != std::string::npos);
+  CHECK(error_of({"gravity.x=1"}).find("'gravity' is a float in the deck, not a table") != std::string::npos);
+  CHECK(error_of({"sph.spacing=1\nx = 2"}).find("is not a TOML value") != std::string::npos);
+  // Checked by the deck's own rules, with the settings named.
+  const std::string range = error_of({"sph.spacing=-1"});
+  CHECK(range.find("deck.toml: sph.spacing = -1 is out of range") == 0);
+  CHECK(range.find("(with --set sph.spacing=-1)") != std::string::npos);
+  CHECK(error_of({"sph.kernel_correction=3"}).find("has the wrong type") != std::string::npos);
+  CHECK(error_of({"clay.bogus=1"}).find("materials[1].bogus = 1 is not a known key") != std::string::npos);
+  CHECK(error_of({"nosuch.key=1"}).find("is not a known key") != std::string::npos);
+}

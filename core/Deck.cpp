@@ -826,6 +826,25 @@ std::string wall_text(const WallSpec& w, const char* pos_key) {
 
 namespace {
 
+// TOML text -> table; a syntax error throws DeckError from `on_error(line, column, why)`
+// (with or without toml++'s exceptions).
+template <class OnError>
+toml::table parse_toml(const std::string& text, const std::string& label, const OnError& on_error) {
+#if TOML_EXCEPTIONS
+  try {
+    return toml::parse(text, label);
+  } catch (const toml::parse_error& e) {
+    on_error(e.source().begin.line, e.source().begin.column, std::string(e.description()));
+  }
+  return {};
+#else
+  toml::parse_result res = toml::parse(text, label);
+  if (!res) on_error(res.error().source().begin.line, res.error().source().begin.column,
+                     std::string(res.error().description()));
+  return std::move(res).table();
+#endif
+}
+
 // One --set KEY=VALUE applied to the parsed deck (see Deck.hpp). The value is parsed as
 // the right-hand side of a TOML key, so the deck's own types apply; the validator then
 // checks it where it lands.
@@ -845,25 +864,12 @@ void apply_override(toml::table& root, const std::string& setting, const std::st
     if (dot == std::string::npos) break;
     from = dot + 1;
   }
-  toml::table value_doc;
   const std::string value_error =
       "the value '" + printable(text) + "' is not a TOML value; allowed: a number (0.005), true or false, "
       "a quoted string (\"fill\") or an array ([0.3, 0.5])";
-#if TOML_EXCEPTIONS
-  try {
-    value_doc = toml::parse("value = " + text);
-  } catch (const toml::parse_error&) {
-    fail(value_error);
-  }
-#else
-  toml::parse_result res = toml::parse("value = " + text);
-  if (!res) fail(value_error);
-  value_doc = std::move(res).table();
-#endif
+  const toml::table value_doc = parse_toml("value = " + text, "--set", [&](auto, auto, const auto&) { fail(value_error); });
   if (value_doc.size() != 1) fail(value_error);  // e.g. "1\nother = 2"
-  const toml::node* value = value_doc.get("value");
-  if (const auto* f = value->as_floating_point(); f && !std::isfinite(f->get()))
-    fail("the value '" + printable(text) + "' is not finite");
+  const toml::node* value = value_doc.get("value");  // a non-finite number is the validator's to refuse
 
   // <material name>.<key>: the [[materials]] entry of that name.
   toml::table* target = &root;
@@ -893,24 +899,10 @@ void apply_override(toml::table& root, const std::string& setting, const std::st
 
 Config parse_deck(const std::string& toml_text, const std::string& file_label,
                   const std::vector<std::string>& overrides) {
-  toml::table root;
-#if TOML_EXCEPTIONS
-  try {
-    root = toml::parse(toml_text, file_label);
-  } catch (const toml::parse_error& e) {
-    const auto& b = e.source().begin;
-    throw DeckError(printable(file_label) + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
-                    std::to_string(b.column) + ": " + std::string(e.description()));
-  }
-#else
-  toml::parse_result res = toml::parse(toml_text, file_label);
-  if (!res) {
-    const auto& b = res.error().source().begin;
-    throw DeckError(printable(file_label) + ": TOML syntax error at line " + std::to_string(b.line) + ", column " +
-                    std::to_string(b.column) + ": " + std::string(res.error().description()));
-  }
-  root = std::move(res).table();
-#endif
+  toml::table root = parse_toml(toml_text, file_label, [&](auto line, auto column, const std::string& why) {
+    throw DeckError(printable(file_label) + ": TOML syntax error at line " + std::to_string(line) + ", column " +
+                    std::to_string(column) + ": " + why);
+  });
   if (overrides.empty()) return build(root, file_label);
   for (const auto& o : overrides) apply_override(root, o, file_label);
   try {

@@ -589,9 +589,15 @@ void read_fem(const Table& top, Config& cfg) {
   const double dp = cfg.sph.spacing;
   // Measured limits (docs/coupling.md): elements finer than the particles are not tied; 2 x 2
   // tie particles per element ran stable, 4 x 4 (the paper's 2.5 mm on 10 mm) went unstable.
-  f.element_size = number(t, "element_size", dp, ge_le(dp, 2 * dp),
-                          "m (sph.spacing <= element_size <= 2 sph.spacing: finer elements are not tied, "
-                          "coarser ones were unstable at the tie)");
+  // The tie limits only bind a model that has elements: with [fem] switched off the key is
+  // kept for a later `--set fem.enabled=true` and need only be a length, so that
+  // `--set sph.spacing=...` on an all-particle deck is not refused over unused elements.
+  if (f.enabled)
+    f.element_size = number(t, "element_size", dp, ge_le(dp, 2 * dp),
+                            "m (sph.spacing <= element_size <= 2 sph.spacing: finer elements are not tied, "
+                            "coarser ones were unstable at the tie)");
+  else
+    f.element_size = number(t, "element_size", dp, gt(0), "m");
   f.grading = number(t, "grading", f.grading, ge_le(1, 1.5), "(element edge growth per element away from the SPH zone)");
   f.hourglass = choice(t, "hourglass", {"viscous", "stiffness"}, "hourglass control", f.hourglass);
   f.hourglass_coefficient = number(t, "hourglass_coefficient", f.hourglass_coefficient, ge_le(0, 1), "");

@@ -650,6 +650,13 @@ TEST_CASE("Deck: [fem] parses, validates and round-trips", "[deck][fem]") {
   off.rest = "[fem]\nenabled = false\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
   const Config c_off = parse_deck(off.text(), "deck.toml");
   CHECK_FALSE(c_off.fem.enabled);
+  // Switched off, the elements' size is not held to the tie limits (it is unused): a finer
+  // or coarser spacing set on an all-particle deck is not refused over it; switched on, it is.
+  off.rest = "[fem]\nenabled = false\nelement_size = 0.005\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
+  CHECK(parse_deck(off.text(), "deck.toml").fem.element_size == 0.005);
+  CHECK_THROWS_AS(parse_deck(off.text(), "deck.toml", {"fem.enabled=true"}), DeckError);
+  off.rest = "[fem]\nenabled = false\nelement_size = -1\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
+  require_error(off.text(), {"fem.element_size", "-1"});
   // errors name the file, the key, the value and what is allowed
   Parts bad = p;
   bad.rest = "[fem]\nhourglass = \"stiff\"\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";

@@ -438,6 +438,8 @@ void DropSequence::progress(int k, bool force) {
   last_progress_wall_ = now;
   const Stage& s = stages_[k];
   const double done_frac = double(k) / stages_.size();
+  // Wall time of this and earlier runs (restored from a checkpoint), so that the step rate
+  // of a restarted run counts the steps before the restart against the time they took.
   const double elapsed = wall_done_ + stage_wall_;
   // Time left from the stages done so far (none done yet: no estimate).
   char left[48] = "time left unknown yet";
@@ -445,7 +447,7 @@ void DropSequence::progress(int k, bool force) {
   char buf[256];
   std::snprintf(buf, sizeof buf, "[tamp] stage %d/%zu %-8s blow %d/%zu | t = %.4f s | step %ld | %.0f steps/s | %s",
                 k + 1, stages_.size(), kind_name(s.kind), s.blow, cfg_.schedule.drop_heights.size(), sim_.time(),
-                sim_.steps(), sim_.steps() / std::max(1e-9, now), left);
+                sim_.steps(), sim_.steps() / std::max(1e-9, elapsed), left);
   std::fprintf(stderr, "%s\n", buf);
 }
 

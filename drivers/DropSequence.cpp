@@ -413,11 +413,15 @@ void DropSequence::record(bool force) {
   const Stage& st = stages_[std::min<int>(next_stage_, static_cast<int>(stages_.size()) - 1)];
   if (!tracer_index_.empty()) {
     std::vector<double> row{sim_.time(), double(st.blow), double(next_stage_)};
-    for (size_t k = 0; k < tracer_index_.size(); ++k) {  // copy only the tracers' rows
-      const auto xk = Kokkos::create_mirror_view_and_copy(
-          HostSpace(), Kokkos::subview(sim_.particles().x, tracer_index_[k], Kokkos::ALL));
-      row.push_back(xk(1) - tracer_z0_[k]);
-      row.push_back(xk(0) - tracer_r0_[k]);
+    // Copy only the tracers' coordinates, one value at a time: a row of x is not contiguous
+    // on the GPU (LayoutLeft), and Kokkos has no device-to-host copy of a strided view.
+    const auto& x = sim_.particles().x;
+    for (size_t k = 0; k < tracer_index_.size(); ++k) {
+      double r = 0, z = 0;
+      Kokkos::deep_copy(r, Kokkos::subview(x, tracer_index_[k], 0));
+      Kokkos::deep_copy(z, Kokkos::subview(x, tracer_index_[k], 1));
+      row.push_back(z - tracer_z0_[k]);
+      row.push_back(r - tracer_r0_[k]);
     }
     tracer_rows_.push_back(row);
   }

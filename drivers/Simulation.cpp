@@ -328,7 +328,9 @@ std::vector<int> Simulation::sort_by_cell() {
   const int n = P.n_real;
   std::vector<int> new_of_old(n);
   if (n == 0) return new_of_old;
-  auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), Kokkos::subview(P.x, std::make_pair(0, n), Kokkos::ALL));
+  // the whole view (the rows of the real particles are not contiguous on the GPU, and Kokkos
+  // has no device-to-host copy of a strided view); rows n and beyond are not read
+  auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), P.x);
   double r0 = x(0, 0), z0 = x(0, 1), r1 = r0;
   for (int i = 1; i < n; ++i) {
     r0 = std::min(r0, x(i, 0));

@@ -331,3 +331,42 @@ TEST_CASE("Drop sequence: a charge that finds no room in a shallow crater adds n
   for (double v : tracers.back()) CHECK(std::isfinite(v));
   tamp::log::set_level(tamp::log::Level::Info);
 }
+
+// Hidden (known defect, found 2026-12-04): a restart from the checkpoint at the end of an
+// extraction or a backfill does not reproduce the uninterrupted run bit for bit; one at the
+// end of an impact does. On examples/ci-drop.toml with a fourth and fifth blow and charges
+// after blows 3 and 4: restarted from 006-extract-blow03, 007-backfill-blow03 or
+// 010-backfill-blow04, the next blows' craters differ by 0.4-63 um (0.005-0.5 %; the state at
+// the end of the next stage already differs in every particle); from 008-impact-blow04 they
+// are equal. Not a loss of accuracy, but restarts are promised bit for bit (issue 11,
+// verification 4) and the CI restart test restarts from an impact only. On the lab deck the restart after blow 20's charge moves blow 21's crater by 7e-7 m,
+// and the runs part after that (docs/resolution.md's 10 mm "tail" run is such a restart).
+// Run it by name: tamp_tests "Restart: from the checkpoint after an extraction*".
+TEST_CASE("Restart: from the checkpoint after an extraction or a backfill, the run goes on as if uninterrupted",
+          "[.][known-defect][restart][drop-sequence]") {
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  Config cfg = load_deck(deck_path);
+  cfg.schedule.drop_heights = {0.30, 0.50, 0.70, 0.30, 0.30};
+  cfg.schedule.backfill_after = {3, 4};
+  auto run = [&](const std::string& dir, const std::string& restart) {
+    Simulation sim(cfg);
+    DropSequence seq(sim, cfg, dir);
+    if (!restart.empty()) seq.restore(read_checkpoint_h5(restart));
+    seq.run();
+    return seq.blows();
+  };
+  const std::string a = fresh_dir("restart_after_stage_full");
+  const auto full = run(a, "");
+  REQUIRE(full.size() == 5);
+  for (const char* ck : {"008-impact-blow04", "006-extract-blow03", "007-backfill-blow03", "010-backfill-blow04"}) {
+    const auto resumed = run(fresh_dir(std::string("restart_after_") + ck), a + "/checkpoints/" + ck + ".h5");
+    REQUIRE(resumed.size() == full.size());
+    for (size_t k = 0; k < full.size(); ++k) {
+      std::printf("[restart] from %s: blow %zu crater %.17g m, uninterrupted %.17g m\n", ck, k + 1,
+                  resumed[k].crater_depth_m, full[k].crater_depth_m);
+      CHECK(resumed[k].crater_depth_m == full[k].crater_depth_m);
+      CHECK(resumed[k].uplift_m == full[k].uplift_m);
+    }
+  }
+  tamp::log::set_level(tamp::log::Level::Info);
+}

@@ -32,6 +32,9 @@ enum ParticleFlag : int {
 //   X(name, element type, components, value of a new particle, checkpoint, meaning)
 // checkpoint: Saved (a checkpoint must hold it), SavedOptional (a checkpoint from before
 // the field existed restores the new-particle value), NotSaved (derived or scratch).
+// art_stress and hoop_factor are derived in the strain-rate pass, but saved: a stage that
+// starts by placing the pounder or adding a charge computes the accelerations before any
+// strain-rate pass, and without them a restart there was not the uninterrupted run.
 #define TAMP_PARTICLE_FIELDS(X)                                                                                \
   X(x, double, 2, 0.0, Saved, "position (r, z), m")                                                          \
   X(v, double, 2, 0.0, Saved, "velocity (v_r, v_z), m/s")                                                    \
@@ -46,13 +49,13 @@ enum ParticleFlag : int {
   X(rho, double, 1, 0.0, Saved, "density, kg/m3")                                                            \
   X(sigma, double, 4, 0.0, Saved, "Cauchy stress rr, zz, tt, rz (tension positive), Pa")                     \
   X(sigma_tmp, double, 4, 0.0, NotSaved, "scratch for stress regularisation, Pa")                            \
-  X(art_stress, double, 3, 0.0, NotSaved, "Gray-Monaghan-Swift R (rr, zz, rz), Pa / (kg/m3)^2")              \
+  X(art_stress, double, 3, 0.0, SavedOptional, "Gray-Monaghan-Swift R (rr, zz, rz), Pa / (kg/m3)^2")         \
   X(pair_stress, double, 3, 0.0, NotSaved, "mp sigma / rho^2 (rr, zz, rz): a particle's share of the pair term") \
   X(plastic_strain, double, 1, 0.0, Saved, "accumulated equivalent plastic shear strain, -")                 \
   X(compaction, double, 1, 0.0, SavedOptional, "plastic volumetric strain, compression positive, -")         \
   X(internal_energy, double, 1, 0.0, Saved, "specific internal energy (strain + dissipated), J/kg")          \
   X(du_visc, double, 1, 0.0, Saved, "rate of viscous heating, W/kg")                                         \
-  X(hoop_factor, double, 1, 1.0, NotSaved, "chi: the hoop terms use chi / r (kernels/SphSolid.hpp)")         \
+  X(hoop_factor, double, 1, 1.0, SavedOptional, "chi: the hoop terms use chi / r (kernels/SphSolid.hpp)")    \
   X(material, int, 1, 0, Saved, "index into the material table")                                             \
   X(flags, int, 1, 0, Saved, "ParticleFlag bits")                                                            \
   X(ghost_source, int, 1, 0, NotSaved, "ghosts: the particle this one mirrors")

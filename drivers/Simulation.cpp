@@ -273,6 +273,9 @@ void Simulation::place_body(double r0, double z0, double v_r, double v_z) {
   body_.r0 = r0; body_.z0 = z0;
   body_.v_r = v_r; body_.v_z = v_z;
   body_.a_r = body_.a_z = 0.0;
+  // The mirror ghosts carry the half-step velocities of the last step; the accelerations here
+  // are of the full-step state (as after a restart, which syncs them from the saved one).
+  ghosts_.sync_kinematics(particles_);
   compute_acceleration();  // the contact forces (and body acceleration) of the new position
   damp_back_ = 0.0;        // from the full-step velocities
 }

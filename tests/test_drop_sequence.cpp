@@ -332,18 +332,11 @@ TEST_CASE("Drop sequence: a charge that finds no room in a shallow crater adds n
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
-// Hidden (known defect, found 2026-12-04): a restart from the checkpoint at the end of an
-// extraction or a backfill does not reproduce the uninterrupted run bit for bit; one at the
-// end of an impact does. On examples/ci-drop.toml with a fourth and fifth blow and charges
-// after blows 3 and 4: restarted from 006-extract-blow03, 007-backfill-blow03 or
-// 010-backfill-blow04, the next blows' craters differ by 0.4-63 um (0.005-0.5 %; the state at
-// the end of the next stage already differs in every particle); from 008-impact-blow04 they
-// are equal. Not a loss of accuracy, but restarts are promised bit for bit (issue 11,
-// verification 4) and the CI restart test restarts from an impact only. On the lab deck the restart after blow 20's charge moves blow 21's crater by 7e-7 m,
-// and the runs part after that (docs/resolution.md's 10 mm "tail" run is such a restart).
-// Run it by name: tamp_tests "Restart: from the checkpoint after an extraction*".
-TEST_CASE("Restart: from the checkpoint after an extraction or a backfill, the run goes on as if uninterrupted",
-          "[.][known-defect][restart][drop-sequence]") {
+namespace {
+// The CI scenario with a fourth and fifth blow and charges after blows 3 and 4, run whole and
+// restarted from each named checkpoint of the whole run: every blow's crater and uplift must
+// be the uninterrupted run's, bit for bit.
+void check_restarts_exact(const std::vector<std::string>& checkpoints, const std::string& tag) {
   tamp::log::set_level(tamp::log::Level::Quiet);
   Config cfg = load_deck(deck_path);
   cfg.schedule.drop_heights = {0.30, 0.50, 0.70, 0.30, 0.30};
@@ -355,18 +348,36 @@ TEST_CASE("Restart: from the checkpoint after an extraction or a backfill, the r
     seq.run();
     return seq.blows();
   };
-  const std::string a = fresh_dir("restart_after_stage_full");
+  const std::string a = fresh_dir("restart_" + tag + "_full");
   const auto full = run(a, "");
   REQUIRE(full.size() == 5);
-  for (const char* ck : {"008-impact-blow04", "006-extract-blow03", "007-backfill-blow03", "010-backfill-blow04"}) {
-    const auto resumed = run(fresh_dir(std::string("restart_after_") + ck), a + "/checkpoints/" + ck + ".h5");
+  for (const auto& ck : checkpoints) {
+    const auto resumed = run(fresh_dir("restart_" + tag + "_" + ck), a + "/checkpoints/" + ck + ".h5");
     REQUIRE(resumed.size() == full.size());
     for (size_t k = 0; k < full.size(); ++k) {
-      std::printf("[restart] from %s: blow %zu crater %.17g m, uninterrupted %.17g m\n", ck, k + 1,
-                  resumed[k].crater_depth_m, full[k].crater_depth_m);
+      if (resumed[k].crater_depth_m != full[k].crater_depth_m)
+        std::printf("[restart] from %s: blow %zu crater %.17g m, uninterrupted %.17g m\n", ck.c_str(), k + 1,
+                    resumed[k].crater_depth_m, full[k].crater_depth_m);
       CHECK(resumed[k].crater_depth_m == full[k].crater_depth_m);
       CHECK(resumed[k].uplift_m == full[k].uplift_m);
     }
   }
   tamp::log::set_level(tamp::log::Level::Info);
+}
+}  // namespace
+
+// Found 2026-12-04 comparing a whole 10 mm main job with the resolution study's restarted
+// one: a restart into a stage that begins by placing the pounder or adding a charge was not
+// the uninterrupted run (craters apart by 0.4-63 um on this scenario from the next blow on;
+// CI restarted from an impact only, which is followed by an extraction). Two causes, both
+// mended: those stages compute the accelerations before any strain-rate pass, from the
+// artificial stress and the hoop factor, which checkpoints did not hold (they do now); and
+// placing the pounder used the mirror ghosts' half-step velocities where a restart has the
+// full-step ones (it syncs them now). The two kinds of stage boundary the CI restart test
+// above (from an impact, into an extraction) does not cross: extraction -> charge and
+// charge -> impact. (Checked by hand on 2026-12-04 also from 000, 002, 008 and 010: equal.)
+TEST_CASE("Restart: from the end of an extraction or a charge, through charges and blows, the run is the "
+          "uninterrupted one bit for bit",
+          "[restart][drop-sequence]") {
+  check_restarts_exact({"006-extract-blow03", "007-backfill-blow03"}, "exact");
 }

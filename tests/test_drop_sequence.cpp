@@ -63,15 +63,27 @@ Config coupled_ci_deck(bool subcycle = true) {
   return cfg;
 }
 
-// Runs the deck in `dir`, from `restart` if given, stopping after stage `stop_after`.
-RunResult run_deck(const std::string& dir, int stop_after = -1, const std::string& restart = "",
-                   bool coupled = false, bool subcycle = true) {
-  const Config cfg = coupled ? coupled_ci_deck(subcycle) : load_deck(deck_path);
+// Runs `cfg` in `dir`, from `restart` if given, stopping after stage `stop_after`.
+RunResult run_config(const Config& cfg, const std::string& dir, int stop_after = -1, const std::string& restart = "") {
   Simulation sim(cfg);
   DropSequence seq(sim, cfg, dir);
   if (!restart.empty()) seq.restore(read_checkpoint_h5(restart));
   seq.run(stop_after);
   return {seq.blows(), sim.snapshot(), sim.tie_particle_count()};
+}
+
+// The CI deck (or its coupled variant) run as run_config does.
+RunResult run_deck(const std::string& dir, int stop_after = -1, const std::string& restart = "",
+                   bool coupled = false, bool subcycle = true) {
+  return run_config(coupled ? coupled_ci_deck(subcycle) : load_deck(deck_path), dir, stop_after, restart);
+}
+
+// The CI deck with its schedule replaced: a fourth and fifth blow, charges after blows 3 and 4.
+Config five_blow_ci_deck(double fourth_drop_m) {
+  Config cfg = load_deck(deck_path);
+  cfg.schedule.drop_heights = {0.30, 0.50, 0.70, fourth_drop_m, 0.30};
+  cfg.schedule.backfill_after = {3, 4};
+  return cfg;
 }
 
 }  // namespace
@@ -302,14 +314,10 @@ TEST_CASE("Drop sequence: a charge that finds no room in a shallow crater adds n
   // ground on the charge of blow 3 (filled to the ground, its top 1.5 mm proud after the
   // extraction); blow 5 makes a 9.6 mm crater. About 14 s on 2 threads.
   tamp::log::set_level(tamp::log::Level::Quiet);
-  Config cfg = load_deck(deck_path);
-  cfg.schedule.drop_heights = {0.30, 0.50, 0.70, 0.02, 0.30};
-  cfg.schedule.backfill_after = {3, 4};
+  const Config cfg = five_blow_ci_deck(0.02);
   const std::string dir = fresh_dir("drop_no_room");
-  Simulation sim(cfg);
-  DropSequence seq(sim, cfg, dir);
-  seq.run();
-  const auto& blows = seq.blows();
+  const RunResult run = run_config(cfg, dir);
+  const auto& blows = run.blows;
   REQUIRE(blows.size() == 5);
   const double dp = cfg.sph.spacing;
   std::printf("[drop, no room] blow 4 from 0.02 m: crater %.4f m, floor after extraction %.4f m, charge %.3f kg; "
@@ -321,7 +329,7 @@ TEST_CASE("Drop sequence: a charge that finds no room in a shallow crater adds n
   CHECK(blows[4].rest_in_contact == 1.0);
   CHECK(blows[4].penetration_m > 0.0);
   double in_particles = 0;
-  const ParticleSnapshot s = sim.snapshot();
+  const ParticleSnapshot& s = run.final_state;
   for (size_t i = 0; i < s.size(); ++i)
     if (s.material[i] == 2) in_particles += s.mass[i];  // materials: sand, clay, aggregate
   CHECK(in_particles == Approx(blows[2].aggregate_added_kg).epsilon(1e-12));
@@ -338,21 +346,12 @@ namespace {
 // be the uninterrupted run's, bit for bit.
 void check_restarts_exact(const std::vector<std::string>& checkpoints, const std::string& tag) {
   tamp::log::set_level(tamp::log::Level::Quiet);
-  Config cfg = load_deck(deck_path);
-  cfg.schedule.drop_heights = {0.30, 0.50, 0.70, 0.30, 0.30};
-  cfg.schedule.backfill_after = {3, 4};
-  auto run = [&](const std::string& dir, const std::string& restart) {
-    Simulation sim(cfg);
-    DropSequence seq(sim, cfg, dir);
-    if (!restart.empty()) seq.restore(read_checkpoint_h5(restart));
-    seq.run();
-    return seq.blows();
-  };
+  const Config cfg = five_blow_ci_deck(0.30);
   const std::string a = fresh_dir("restart_" + tag + "_full");
-  const auto full = run(a, "");
+  const auto full = run_config(cfg, a).blows;
   REQUIRE(full.size() == 5);
   for (const auto& ck : checkpoints) {
-    const auto resumed = run(fresh_dir("restart_" + tag + "_" + ck), a + "/checkpoints/" + ck + ".h5");
+    const auto resumed = run_config(cfg, fresh_dir("restart_" + tag + "_" + ck), -1, a + "/checkpoints/" + ck + ".h5").blows;
     REQUIRE(resumed.size() == full.size());
     for (size_t k = 0; k < full.size(); ++k) {
       if (resumed[k].crater_depth_m != full[k].crater_depth_m)

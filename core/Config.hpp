@@ -48,6 +48,7 @@ struct MaterialSpec {
   double psi_deg = 0;             // dilation angle, degrees, [0, phi]
   double tension_cutoff = 0;      // Pa, >= 0
   double separation_density = 0;  // kg/m3, below it the grains carry no stress (0 = never)
+  double mass_scaling = 1;        // inertia / mass (weight not scaled), >= 1 (docs/models.md "Mass scaling")
   // effects (models/Effects.hpp, docs/effects.md); defaults = off
   double crush_pressure = 0;      // Pa, compaction starts above this mean pressure
   double crush_hardening = 0;     // Pa per unit compaction strain

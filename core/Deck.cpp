@@ -618,6 +618,13 @@ void read_fem(const Table& top, Config& cfg) {
   f.zone_r_min = (*r)[0]; f.zone_r_max = (*r)[1];
   f.zone_z_min = (*zz)[0]; f.zone_z_max = (*zz)[1];
   if (!f.enabled) return;
+  // Mass scaling acts on the particles' inertia (kernels/Integrate.hpp Kick); the elements'
+  // nodal masses do not carry it.
+  for (std::size_t i = 0; i < cfg.materials.size(); ++i)
+    if (cfg.materials[i].mass_scaling != 1.0)
+      t.rep().bad("materials[" + std::to_string(i) + "].mass_scaling", fmt_num(cfg.materials[i].mass_scaling),
+                  "with [fem] enabled = true (material '" + cfg.materials[i].name + "')",
+                  "1 (no mass scaling) with [fem] enabled, or [fem] enabled = false");
   if (f.zone_r_min != 0.0)
     z.rep().out_of_range(z.path("r"), *z.find("r"), "r = [0, r_max]: the zone is around the axis (a ring-shaped zone is not supported)");
   // the zone lies on the particle grid of the blocks it cuts

@@ -25,6 +25,8 @@ struct MaterialParams {
                               // for phi > 0 the apex c cot(phi) applies if smaller
   double separation_density = 0;  // kg/m3: a granular material below its loosest packing has
                                   // no grain contacts and carries no stress (0 = never)
+  double inertia = 1;  // mass scaling: the inertia of the material is this times its mass
+                       // (its weight, stiffness and strength are not scaled), >= 1
 
   // Effects added to Mohr-Coulomb / Tresca (models/Effects.hpp, docs/effects.md); each is
   // off at its default.
@@ -47,9 +49,10 @@ struct MaterialParams {
   KOKKOS_INLINE_FUNCTION double p_wave_modulus() const {
     return bulk_modulus + 4.0 / 3.0 * shear_modulus;
   }
-  // Compression (P) wave speed at the reference density, m/s.
+  // Compression (P) wave speed of the model at the reference density, m/s: with mass
+  // scaling, sqrt(M / (inertia rho)).
   KOKKOS_INLINE_FUNCTION double wave_speed() const {
-    return math::sqrt(p_wave_modulus() / density);
+    return math::sqrt(p_wave_modulus() / (inertia * density));
   }
   // Elastic strain energy per unit volume of the stress s (rr, zz, tt, rz), J/m3:
   // p^2 / (2K) + J2 / (2G), the energy an isotropic elastic unloading would give back.

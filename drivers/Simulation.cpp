@@ -452,7 +452,7 @@ void Simulation::first_half_kick(double dt) {
     account_half_kick(dt, 0.25 * dt);  // the work of every force over this half kick
   }
   Timed t(*this, &StepProfile::kick_drift);
-  Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
+  Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, materials_, 0.5 * dt));
   body_.half_kick(0.5 * dt);
 }
 
@@ -522,7 +522,7 @@ void Simulation::second_half_kick(double dt) {
   {
     Timed t(*this, &StepProfile::kick_drift);
     damp_back_ = 0.5 * dt;  // the damping used v^{n+1/2} = v^{n+1} - dt/2 a^{n+1}
-    Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, 0.5 * dt));
+    Kokkos::parallel_for("tamp::kick", real_particles(), Kick(particles_, materials_, 0.5 * dt));
     body_.half_kick(0.5 * dt);
   }
   Timed t(*this, &StepProfile::energy_account);
@@ -552,7 +552,7 @@ void Simulation::advance_to(double end_time, const std::function<bool()>& on_ste
   Kokkos::fence();
 }
 
-Energies Simulation::energies() const { return energy_sums(particles_, config_.gravity); }
+Energies Simulation::energies() const { return energy_sums(particles_, materials_, config_.gravity); }
 
 std::vector<std::pair<const char*, ViewN<double, 2>*>> Simulation::acceleration_parts() {
   return {{"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_},
@@ -566,7 +566,7 @@ void Simulation::account_half_kick(double dt, double shift) {
   const bool contact = body_.active && contact_force_.extent(0) > 0;
   const double ur = body_.kinematic ? body_.v_r : body_.v_r + shift * body_.a_r;
   const double uz = body_.kinematic ? body_.v_z : body_.v_z + shift * body_.a_z;
-  EnergyFluxes f(P, static_cast<unsigned>(materials_host_.size()));
+  EnergyFluxes f(P, materials_, static_cast<unsigned>(materials_host_.size()));
   f.a_boundary = a_boundary_;
   f.a_friction = a_friction_;
   f.contact_force = contact_force_;

@@ -17,11 +17,13 @@ struct ViscousSpring {
   double dashpot_n, dashpot_t;  // Pa s/m
   double spring_n, spring_t;    // Pa/m
 };
+// A mass-scaled material (inertia s) is a medium of density s rho: its impedances are
+// s rho c / sqrt(s) = sqrt(s) rho c.
 KOKKOS_INLINE_FUNCTION ViscousSpring viscous_spring(const MaterialParams& m, double rho, double spring_distance) {
-  const double G = m.shear_modulus;
-  const double cp = math::sqrt(m.p_wave_modulus() / rho), cs = math::sqrt(G / rho);
+  const double G = m.shear_modulus, rho_i = m.inertia * rho;
+  const double cp = math::sqrt(m.p_wave_modulus() / rho_i), cs = math::sqrt(G / rho_i);
   const double kn = spring_distance > 0 ? 4.0 * G / (3.0 * spring_distance) : 0.0;
-  return {rho * cp, rho * cs, kn, 0.5 * kn};
+  return {rho_i * cp, rho_i * cs, kn, 0.5 * kn};
 }
 
 // A box of the meridian plane, m: a particle is inside when r_min <= r < r_max and

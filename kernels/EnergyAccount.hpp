@@ -15,7 +15,7 @@
 // account is exact for each force however stiff. (Full-step velocities, a trapezoidal rule,
 // missed a first-order part of the stick friction, whose force is ~ m v / dt.) v_c, the
 // velocity the damping was computed from, is v - damp_back a.
-// MaterialEnergies: per material k, [4k + 0] kinetic, [4k + 1] internal (strain + heat),
+// MaterialEnergies: per material k, [4k + 0] kinetic (of the inertia, for mass scaling), [4k + 1] internal (strain + heat),
 // [4k + 2] gravitational (relative to z = 0), [4k + 3] elastic strain energy
 //   W = m / rho (p^2 / (2K) + J2 / (2G)),  p = tr(sigma) / 3,  J2 = s:s / 2,
 // the energy a linear-elastic unloading would give back; internal - elastic is what the
@@ -35,24 +35,28 @@ struct EnergyFluxes {
   ViewN<double, 2> v, a, a_boundary, a_friction, contact_force, a_art;
   View1<double> mass, du_visc;
   View1<int> material;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
   double damping, shift, damp_back;
   double body_ur, body_uz;  // the body's mid-kick velocity U
   int with_boundary, with_friction, with_contact, with_art;
 
   // Built by name from the particle fields; the parts of a written apart, the body's
   // velocity and the switches are set by the caller by name.
-  EnergyFluxes(const Particles& P, unsigned n_materials)
-      : value_count(5 + n_materials), damping(0), shift(0), damp_back(0), body_ur(0), body_uz(0),
+  EnergyFluxes(const Particles& P, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in,
+               unsigned n_materials)
+      : value_count(5 + n_materials), materials(materials_in), damping(0), shift(0), damp_back(0), body_ur(0), body_uz(0),
         with_boundary(0), with_friction(0), with_contact(0), with_art(0) {
     v = P.v; a = P.a; mass = P.mass; du_visc = P.du_visc; material = P.material;
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(const int i, value_type sum) const {
-    const double m = mass(i), ar = a(i, 0), az = a(i, 1);
+    // the velocity change per unit time is a / inertia for a mass-scaled material
+    const double s = materials(material(i)).inertia;
+    const double m = mass(i), ar = a(i, 0) / s, az = a(i, 1) / s;
     const double ur = v(i, 0) + shift * ar, uz = v(i, 1) + shift * az;
-    if (damping != 0.0) {
+    if (damping != 0.0) {  // mass-proportional: on the inertia (Acceleration)
       const double cr = v(i, 0) - damp_back * ar, cz = v(i, 1) - damp_back * az;
-      sum[0] -= m * damping * (cr * ur + cz * uz);
+      sum[0] -= s * m * damping * (cr * ur + cz * uz);
     }
     if (with_boundary) sum[1] += m * (a_boundary(i, 0) * ur + a_boundary(i, 1) * uz);
     if (with_friction) sum[2] += m * (a_friction(i, 0) * ur + a_friction(i, 1) * uz);
@@ -90,7 +94,7 @@ struct MaterialEnergies {
     const double m = mass(i);
     const MaterialParams& mp = materials(material(i));
     const double w = mp.elastic_energy_density(sigma(i, 0), sigma(i, 1), sigma(i, 2), sigma(i, 3));
-    sum[k + 0] += 0.5 * m * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
+    sum[k + 0] += 0.5 * mp.inertia * m * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
     sum[k + 1] += m * internal_energy(i);
     sum[k + 2] += m * gravity * x(i, 1);
     sum[k + 3] += m / rho(i) * w;

@@ -8,25 +8,30 @@
 
 namespace tamp {
 
-// v += dt_half * a (driven particles take their prescribed velocity);
-// the viscous heating rate is integrated with the same half step.
+// v += dt_half * a / inertia (driven particles take their prescribed velocity);
+// the viscous heating rate is integrated with the same half step. `a` is the force per unit
+// (true) mass; a mass-scaled material (MaterialParams::inertia > 1) responds to it with its
+// larger inertia.
 struct Kick {
   ViewN<double, 2> v, a, v_prescribed;
   View1<double> internal_energy, du_visc;
-  View1<int> flags;
+  View1<int> flags, material;
+  Kokkos::View<const MaterialParams*, MemSpace> materials;
   double dt_half;
   // Built by name from the particle fields (core/Particles.hpp).
-  Kick(const Particles& P, double dt_half_in) : dt_half(dt_half_in) {
+  Kick(const Particles& P, const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, double dt_half_in)
+      : materials(materials_in), dt_half(dt_half_in) {
     v = P.v; a = P.a; v_prescribed = P.v_prescribed;
-    internal_energy = P.internal_energy; du_visc = P.du_visc; flags = P.flags;
+    internal_energy = P.internal_energy; du_visc = P.du_visc; flags = P.flags; material = P.material;
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     if (flags(i) & FLAG_DRIVEN) {
       v(i, 0) = v_prescribed(i, 0);
       v(i, 1) = v_prescribed(i, 1);
     } else {
-      v(i, 0) += dt_half * a(i, 0);
-      v(i, 1) += dt_half * a(i, 1);
+      const double k = dt_half / materials(material(i)).inertia;
+      v(i, 0) += k * a(i, 0);
+      v(i, 1) += k * a(i, 1);
     }
     internal_energy(i) += dt_half * du_visc(i);
   }
@@ -67,7 +72,8 @@ struct Drift {
   }
 };
 
-// Stable step: dt = cfl * min_a h / (c_a + |v_a|), also bounded by cfl * sqrt(h / |a_a|).
+// Stable step: dt = cfl * min_a h / (c_a + |v_a|), also bounded by cfl * sqrt(h / |a_a|),
+// with c_a = sqrt(M / (inertia rho)) and a_a / inertia for a mass-scaled material.
 struct StableStep {
   ViewN<double, 2> v, a;
   View1<double> rho;
@@ -80,10 +86,10 @@ struct StableStep {
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int i, double& dt_min) const {
     const MaterialParams& m = materials(material(i));
-    const double c = math::sqrt(m.p_wave_modulus() / rho(i));
+    const double c = math::sqrt(m.p_wave_modulus() / (m.inertia * rho(i)));
     const double speed = math::sqrt(v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
     double dt = h / (c + speed);
-    const double acc = math::sqrt(a(i, 0) * a(i, 0) + a(i, 1) * a(i, 1));
+    const double acc = math::sqrt(a(i, 0) * a(i, 0) + a(i, 1) * a(i, 1)) / m.inertia;
     if (acc > 0) dt = math::min(dt, math::sqrt(h / acc));
     if (!(dt == dt)) dt = 0;  // NaN -> zero step, caught by the driver
     dt_min = math::min(dt_min, dt);
@@ -98,11 +104,13 @@ struct Energies {
 };
 
 // Kinetic, internal and gravitational energy of the real particles (ring masses), summed
-// in a fixed order (kernels/DeterministicSum.hpp): the same on any number of threads.
-inline Energies energy_sums(const Particles& p, double gravity) {
-  auto x = p.x; auto v = p.v; auto m = p.mass; auto u = p.internal_energy;
+// in a fixed order (kernels/DeterministicSum.hpp): the same on any number of threads. The
+// kinetic energy of a mass-scaled material is that of its inertia.
+inline Energies energy_sums(const Particles& p, const Kokkos::View<const MaterialParams*, MemSpace>& materials,
+                            double gravity) {
+  auto x = p.x; auto v = p.v; auto m = p.mass; auto u = p.internal_energy; auto mat = p.material;
   const auto s = fixed_order_sum<3>("tamp::energy::sums", p.n_real, KOKKOS_LAMBDA(int i, double* e) {
-    e[0] += 0.5 * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
+    e[0] += 0.5 * materials(mat(i)).inertia * m(i) * (v(i, 0) * v(i, 0) + v(i, 1) * v(i, 1));
     e[1] += m(i) * u(i);
     e[2] += m(i) * gravity * x(i, 1);
   });

@@ -131,11 +131,17 @@ struct PenaltyContact {
     const double g = law.contact_distance - d;
     if (g <= 0.0) return;
     const double dp = 2.0 * law.contact_distance;
-    const double c2 = materials(material(i)).p_wave_modulus() / rho(i);
+    // A mass-scaled particle (inertia s) keeps the spring (a force per unit mass, from its
+    // stiffness M) and responds with s times the inertia; its dashpot rates are those of the
+    // spring on that inertia, sqrt(kappa s), and stopping within a step takes s v / dt.
+    const MaterialParams& mp = materials(material(i));
+    const double s_in = mp.inertia;
+    const double c2 = mp.p_wave_modulus() / rho(i);
     const double kappa = law.penalty_scale * c2 / (dp * dp);
+    const double rate = math::sqrt(kappa * s_in);
     const double vr = v(i, 0) - body.v_r, vz = v(i, 1) - body.v_z;
     const double vn = vr * nr + vz * nz;
-    double an = kappa * g - 2.0 * law.damping_ratio * math::sqrt(kappa) * vn;
+    double an = kappa * g - 2.0 * law.damping_ratio * rate * vn;
     if (an < 0.0) an = 0.0;  // no adhesion
     const double tr = vr - vn * nr, tz = vz - vn * nz;
     const double vt = math::sqrt(tr * tr + tz * tz);
@@ -149,7 +155,7 @@ struct PenaltyContact {
       // step by step, and the pair forces then did work their stress power did not book
       // (lab blow 8: 1.1 J of the 1.7 J energy residual went with the friction).
       // (1/dt bounds the rate for stiff penalty scales: never more than stopping.)
-      const double at = math::min(mu * an, math::min(math::sqrt(kappa), 1.0 / dt) * vt);
+      const double at = math::min(mu * an, math::min(rate, s_in / dt) * vt);
       ar -= at * tr / vt;
       az -= at * tz / vt;
     }

@@ -277,8 +277,10 @@ struct Acceleration {
     }
     ar -= sigma(i, 2) * hoop_factor(i) / (rhoa * r_reg);
     az -= p.gravity;
-    ar += a_ext(i, 0) - p.damping * vra;
-    az += a_ext(i, 1) - p.damping * vza;
+    // mass-proportional damping on the inertia: the same rate p.damping for a mass-scaled material
+    const double damp = p.damping * materials(material(i)).inertia;
+    ar += a_ext(i, 0) - damp * vra;
+    az += a_ext(i, 1) - damp * vza;
     a(i, 0) = ar;
     a(i, 1) = az;
     du_visc(i) = heat;

@@ -54,7 +54,7 @@ struct WallFriction {
       // needs more than the cap, the particle slides with the full friction against v_t
       // (or, starting from rest, against the other forces).
       const double vt = v(i, t);
-      const double stick = -(vt / dt + a(i, t));
+      const double stick = -(m.inertia * vt / dt + a(i, t));  // a per unit mass; inertia m.inertia times it
       double at;
       if (math::abs(stick) <= cap) at = stick;
       else if (vt != 0.0) at = vt > 0.0 ? -cap : cap;

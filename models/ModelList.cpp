@@ -56,6 +56,10 @@ const std::vector<ModelKey>& common_material_keys() {
       // carry no stress (models/StressUpdate.hpp, docs/models.md "Separated grains").
       {"separation_density", "kg/m3", ge(0), 0.0, "grains separate (no stress) below this density; 0 = never",
        &MaterialSpec::separation_density, false, false},
+      // Mass scaling of a stiff material that sets the stable step (docs/models.md "Mass
+      // scaling"): its inertia times this, its weight and stiffness as they are.
+      {"mass_scaling", "", ge_le(1, 100), 1.0, "inertia / mass (weight and stiffness unscaled); 1 = none",
+       &MaterialSpec::mass_scaling, false, false},
   };
   return keys;
 }
@@ -122,6 +126,7 @@ MaterialParams make_material(const MaterialSpec& s) {
   m.shear_modulus = s.shear_modulus;
   m.bulk_modulus = bulk_from_shear(s.shear_modulus, s.poisson_ratio);
   m.separation_density = s.separation_density;
+  m.inertia = s.mass_scaling;
   if (d.to_params) d.to_params(s, m);
   if (d.effects) {
     m.crush_pressure = s.crush_pressure;

@@ -144,6 +144,7 @@ void require_same(const Config& a, const Config& b) {
     CHECK(x.psi_deg == y.psi_deg);
     CHECK(x.tension_cutoff == y.tension_cutoff);
     CHECK(x.separation_density == y.separation_density);
+    CHECK(x.mass_scaling == y.mass_scaling);
   }
   REQUIRE(a.blocks.size() == b.blocks.size());
   for (std::size_t i = 0; i < a.blocks.size(); ++i) {
@@ -285,6 +286,7 @@ TEST_CASE("Deck: to_toml round trip gives the same Config", "[deck]") {
     m.psi_deg = 35.123456789;
     m.tension_cutoff = 5;
     m.separation_density = 1000.0 / 0.9;
+    m.mass_scaling = 6.08;
     a.materials.push_back(m);
     tamp::MaterialSpec t;
     t.name = "clay";
@@ -400,6 +402,18 @@ TEST_CASE("Deck: out-of-range values are rejected", "[deck]") {
     p.materials = mohr_coulomb + "separation_density = 2000\n";
     require_error(p.text(), {"materials[0].separation_density = 2000", "is not below the material's density 2000",
                              "grain density / (1 + e_max)"});
+  }
+  SECTION("mass scaling below 1") {
+    Parts p;
+    p.materials += "mass_scaling = 0.5\n";
+    require_error(p.text(), {"materials[0].mass_scaling = 0.5", "1 <= mass_scaling <= 100"});
+  }
+  SECTION("mass scaling with elements") {
+    Parts p;
+    p.materials += "mass_scaling = 4\n";
+    p.rest = "[fem]\nsph_zone = { r = [0, 0.3], z = [0.5, 1.0] }\n";
+    require_error(p.text(), {"materials[0].mass_scaling = 4", "with [fem] enabled = true (material 'soil')",
+                             "1 (no mass scaling) with [fem] enabled, or [fem] enabled = false"});
   }
   SECTION("cfl above 1") {
     Parts p;

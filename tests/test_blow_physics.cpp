@@ -199,21 +199,8 @@ TEST_CASE("Wall: pounder dropped onto an elastic layer on a fixed base, energy b
   // base instead of a roller: the fixed wall is a roller mirror plus Coulomb friction
   // (kernels/WallFriction.hpp), whose work is in the account. The former no-slip mirror
   // gained ~40 J (+187 % of the blow) here. Tolerance 2 % of the blow's kinetic energy (issue).
-  Config cfg = column_config(0.3, 0.2, 0.01);
-  cfg.bottom = {WallType::Fixed, 0.0};
-  cfg.materials = {tamp::lab::clay("elastic")};
-  cfg.gravity = 9.81;
-  cfg.initial_stress = "geostatic";
-  Simulation sim(cfg);
-  sim.set_rigid_body(tamp::barrel_profile(0.09, 0.1, 0.2, 16), 10.55);
-  const double v0 = 2.0;
-  sim.place_body(0.0, 0.2 + 0.001, 0.0, -v0);
-  const double e0 = sim.accounted_energy(), blow = 0.5 * 10.55 * v0 * v0;
-  double worst = 0;
-  while (sim.time() < 0.06) {
-    sim.step();
-    worst = std::max(worst, std::fabs(sim.accounted_energy() - e0));
-  }
+  Simulation sim(tamp::testing::elastic_clay_layer(WallType::Fixed));
+  const double worst = tamp::testing::drop_pounder_worst_imbalance(sim), blow = 0.5 * 10.55 * 2.0 * 2.0;
   std::printf("[energy, fixed base] %ld steps: blow %.3f J; wall friction %.4f J, contact %.4f J; worst imbalance "
               "%.4f J = %.3f %% of the blow\n",
               sim.steps(), blow, -sim.ledger().wall_friction_J, sim.contact_energy(), worst, 100 * worst / blow);

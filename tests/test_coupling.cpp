@@ -128,20 +128,11 @@ TEST_CASE("Tie: a pulse from soft particles into stiff subcycled elements reflec
     const double z1 = clay.density * clay.wave_speed(), z2 = sand_params.density * sand_params.wave_speed();
     const double reflected_exact = std::pow((z2 - z1) / (z2 + z1), 2);
     const Box top{0, 1, L - dp, 1};
-    sim.prescribe_velocity(top, 0.0, v0);
     const double t_cross = (L - zi) / clay.wave_speed();  // the front reaches the interface
     const double t_incident = t_cross - 0.05 / clay.wave_speed();
     const double t_end = t_cross + pulse + 0.6e-3;  // tail 31 mm above; transmitted front 0.39 m below
-    double e_incident = -1;
-    bool pulse_on = true;
-    while (sim.time() < t_end) {
-      sim.step();
-      if (pulse_on && sim.time() >= pulse) {
-        sim.prescribe_velocity(top, 0.0, 0.0);
-        pulse_on = false;
-      }
-      if (e_incident < 0 && sim.time() >= t_incident) e_incident = wave_energy(sim);
-    }
+    const double e_incident =
+        drive_pulse(sim, top, v0, pulse, t_incident, t_end, [](const Simulation& sm) { return wave_energy(sm); });
     const fem::FemEnergies fe = model.energies();
     const double reflected = wave_energy(sim) / e_incident;
     const double transmitted = (fe.kinetic + fe.internal + fe.hourglass) / e_incident;

@@ -58,20 +58,12 @@ PulseResult pulse_into_sand(double s) {
   const double z1 = clay.density * clay.wave_speed();
   const double z2 = s * sandp.density * sandp.wave_speed();  // wave_speed() is c / sqrt(s)
   const Box top{0, 1, L - dp, 1};
-  sim.prescribe_velocity(top, 0.0, v0);
   const double t_cross = (L - zi) / clay.wave_speed();
   const double t_incident = t_cross - 0.05 / clay.wave_speed();
   const double t_end = t_cross + pulse + 0.6e-3;
-  double e_incident = -1;
-  bool pulse_on = true;
-  while (sim.time() < t_end) {
-    sim.step();
-    if (pulse_on && sim.time() >= pulse) {
-      sim.prescribe_velocity(top, 0.0, 0.0);
-      pulse_on = false;
-    }
-    if (e_incident < 0 && sim.time() >= t_incident) e_incident = wave_energy_of(sim, 0) + wave_energy_of(sim, 1);
-  }
+  const double e_incident = drive_pulse(sim, top, v0, pulse, t_incident, t_end, [](const Simulation& sm) {
+    return wave_energy_of(sm, 0) + wave_energy_of(sm, 1);
+  });
   return {wave_energy_of(sim, 0) / e_incident, wave_energy_of(sim, 1) / e_incident,
           std::pow((z2 - z1) / (z2 + z1), 2), sim.last_dt(), sim.steps()};
 }
@@ -145,22 +137,10 @@ TEST_CASE("Mass scaling: a pounder dropped onto a mass-scaled elastic layer, ene
   // the contact must stay constant; tolerance 2 % of the blow's kinetic energy (issue). The
   // layer's inertia is scaled by 4: the contact acts on it with its spring unchanged and its
   // dashpots at the rate of that inertia (kernels/RigidContact.hpp).
-  Config cfg = column_config(0.3, 0.2, 0.01);
-  cfg.bottom = {WallType::Roller, 0.0};
-  cfg.materials = {lab::clay("elastic")};
+  Config cfg = elastic_clay_layer(WallType::Roller);
   cfg.materials[0].mass_scaling = 4.0;
-  cfg.gravity = 9.81;
-  cfg.initial_stress = "geostatic";
   Simulation sim(cfg);
-  sim.set_rigid_body(barrel_profile(0.09, 0.1, 0.2, 16), 10.55);
-  const double v0 = 2.0;
-  sim.place_body(0.0, 0.2 + 0.001, 0.0, -v0);
-  const double e0 = sim.accounted_energy(), blow = 0.5 * 10.55 * v0 * v0;
-  double worst = 0;
-  while (sim.time() < 0.06) {
-    sim.step();
-    worst = std::max(worst, std::fabs(sim.accounted_energy() - e0));
-  }
+  const double worst = drop_pounder_worst_imbalance(sim), blow = 0.5 * 10.55 * 2.0 * 2.0;
   std::printf("[mass scaling] drop on a layer of inertia 4x: %ld steps, worst imbalance %.4f J = %.3f %% of the blow\n",
               sim.steps(), worst, 100 * worst / blow);
   CHECK(worst / blow < 0.02);

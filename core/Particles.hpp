@@ -55,6 +55,8 @@ enum ParticleFlag : int {
   X(compaction, double, 1, 0.0, SavedOptional, "plastic volumetric strain, compression positive, -")         \
   X(internal_energy, double, 1, 0.0, Saved, "specific internal energy (strain + dissipated), J/kg")          \
   X(du_visc, double, 1, 0.0, Saved, "rate of viscous heating, W/kg")                                         \
+  X(image_force, double, 4, 0.0, SavedOptional, "stress pair force of the mirror images (axis r, z; walls r, z), N/kg") \
+  X(image_work, double, 2, 0.0, SavedOptional, "energy the image pairs gave the particle (axis, walls): numerical, J/kg") \
   X(hoop_factor, double, 1, 1.0, SavedOptional, "chi: the hoop terms use chi / r (kernels/SphSolid.hpp)")    \
   X(material, int, 1, 0, Saved, "index into the material table")                                             \
   X(flags, int, 1, 0, Saved, "ParticleFlag bits")                                                            \

@@ -52,7 +52,8 @@ const std::vector<BlowColumn>& blow_columns() {
       {"artificial_stress_J", &B::artificial_stress_J},
       {"returned_J", &B::returned_J},             {"residual_J", &B::residual_J},
       {"contact_time_s", &B::contact_time_s},     {"flight_time_s", &B::flight_time_s},
-      {"rest_time_s", &B::rest_time_s},           {"ballistic_time_s", &B::ballistic_time_s}};
+      {"rest_time_s", &B::rest_time_s},           {"ballistic_time_s", &B::ballistic_time_s},
+      {"axis_images_J", &B::axis_images_J},       {"wall_images_J", &B::wall_images_J}};
   return columns;
 }
 
@@ -168,7 +169,8 @@ void DropSequence::begin_impact(const Stage& s) {
 // potential), contact, damping / boundary / wall-friction / artificial-stress work (EnergyLedger), then per
 // material kinetic, internal, potential, elastic, numerical heat (the particles' viscous
 // heat and the tied elements' hourglass work), then the tied elements' nodes: motion,
-// boundary work, damping work (zero without elements).
+// boundary work, damping work (zero without elements), then the work of the axis and wall
+// images (appended last, so that a checkpoint written before them still reads).
 std::vector<double> DropSequence::energy_state() const {
   const EnergyLedger& L = sim_.ledger();
   std::vector<double> e{sim_.body_energy(), sim_.contact_energy(), L.damping_J, L.boundary_J, L.wall_friction_J,
@@ -179,6 +181,9 @@ std::vector<double> DropSequence::energy_state() const {
       e.push_back(v);
   const ElementNodeEnergy n = sim_.element_node_energy();
   for (double v : {n.motion, n.boundary_work, n.damping_work}) e.push_back(v);
+  const ImageWork images = sim_.image_work();
+  e.push_back(images.axis_J);
+  e.push_back(images.walls_J);
   return e;
 }
 
@@ -357,8 +362,10 @@ void DropSequence::end_impact(BlowRecord& rec) {
   rec.soil_motion_J += d(kn);
   rec.radiated_J -= d(kn + 1);
   rec.damping_J -= d(kn + 2);
-  rec.residual_J = rec.energy_in_J + rec.artificial_stress_J - (rec.soil_motion_J + internal + rec.contact_J + rec.radiated_J + rec.damping_J +
-                                      rec.wall_friction_J);
+  rec.axis_images_J = d(kn + 3);
+  rec.wall_images_J = d(kn + 4);
+  rec.residual_J = rec.energy_in_J + rec.artificial_stress_J + rec.axis_images_J + rec.wall_images_J -
+                   (rec.soil_motion_J + internal + rec.contact_J + rec.radiated_J + rec.damping_J + rec.wall_friction_J);
 }
 
 void DropSequence::backfill(const Stage& s) {
@@ -556,13 +563,16 @@ void DropSequence::restore(const Checkpoint& c) {
   const auto& br = c.reals.at("seq_blows");
   const auto& cols = blow_columns();
   const size_t nm = cfg_.materials.size();
-  // A checkpoint written before the last column (ballistic_time_s, 2026-12-02) reads with
-  // it 0: no flight was jumped then. Any other width is another deck or an older Tamp.
-  const size_t nc = static_cast<size_t>(br.width) + 1 == 2 + cols.size() + nm ? cols.size() - 1 : cols.size();
-  const size_t width = 2 + nc + nm;
-  if (br.width != static_cast<int>(width))
+  // A checkpoint written before the last columns were added reads them as 0 (ballistic_time_s,
+  // 2026-12-02: no flight was jumped then; axis_images_J and wall_images_J, 2026-12-04: not
+  // measured then). Any other width is another deck or an older Tamp.
+  const size_t first_added = 25;  // the columns up to rest_time_s
+  const long nc_read = static_cast<long>(br.width) - 2 - static_cast<long>(nm);
+  if (nc_read < static_cast<long>(first_added) || nc_read > static_cast<long>(cols.size()))
     throw std::invalid_argument("the checkpoint's blow table has " + std::to_string(br.width) + " columns; this version writes " +
                                 std::to_string(2 + cols.size() + nm) + " (a checkpoint of an older Tamp or of another deck)");
+  const size_t nc = static_cast<size_t>(nc_read);
+  const size_t width = 2 + nc + nm;
   for (size_t i = 0; i + width <= br.values.size(); i += width) {
     const double* v = &br.values[i];
     BlowRecord b;

@@ -55,6 +55,9 @@ struct BlowRecord {
   // simulated time of the impact stage
   double contact_time_s = 0, flight_time_s = 0, rest_time_s = 0;
   double ballistic_time_s = 0;         // the part of flight_time_s advanced in ballistic jumps
+  // work of the stress pair terms with the mirror images (numerical, > 0: fed in; docs/sph.md)
+  double axis_images_J = 0;            // of the axis images
+  double wall_images_J = 0;            // of the wall images
   double wall_s = 0;                   // wall time of this blow's stages
 };
 

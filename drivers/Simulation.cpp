@@ -214,6 +214,7 @@ void Simulation::compute_acceleration() {
     f.a_wall = a_wall_;
     f.a_art = a_art_;
     f.fixed_walls = fixed_walls_ ? 1 : 0;
+    f.first_image = P.n_real + P.n_tie;
     Kokkos::parallel_for("tamp::sph::acceleration", real_particles(), f);
   }
   if (fem_ && tie_.count > 0) {
@@ -492,8 +493,9 @@ void Simulation::rates_and_stress(double dt) {
   {
     Timed t(*this, &StepProfile::strain_rate_stress);
     ensure_pair_storage();
-    Kokkos::parallel_for("tamp::sph::strain_rate_stress", real_particles(),
-                         StrainRateAndStress(P, neighbours_, pair_gradient_factor_, materials_, sph_, dt));
+    StrainRateAndStress f(P, neighbours_, pair_gradient_factor_, materials_, sph_, dt);
+    f.first_image = P.n_real + P.n_tie;
+    Kokkos::parallel_for("tamp::sph::strain_rate_stress", real_particles(), f);
   }
   element_stress(dt);
   Timed t(*this, &StepProfile::pair_stress);
@@ -553,6 +555,18 @@ void Simulation::advance_to(double end_time, const std::function<bool()>& on_ste
 }
 
 Energies Simulation::energies() const { return energy_sums(particles_, materials_, config_.gravity); }
+
+ImageWork Simulation::image_work() const {
+  const Particles& P = particles_;
+  auto w = P.image_work;
+  auto m = P.mass;
+  std::vector<double> s = fixed_order_sums("tamp::energy::images", P.n_real, 2,
+                                           KOKKOS_LAMBDA(int i, double* sum) {
+                                             sum[0] += m(i) * w(i, 0);
+                                             sum[1] += m(i) * w(i, 1);
+                                           });
+  return {s[0], s[1]};
+}
 
 std::vector<std::pair<const char*, ViewN<double, 2>*>> Simulation::acceleration_parts() {
   return {{"acc_boundary", &a_boundary_}, {"acc_friction", &a_friction_}, {"acc_art", &a_art_},
@@ -624,8 +638,9 @@ double Simulation::accounted_energy() const {
     elements = e.kinetic + fem_->potential_energy(config_.gravity) + e.internal + e.hourglass - e.boundary_work -
                e.damping_work;
   }
+  const ImageWork images = image_work();
   return energies().total() + elements + body_energy() + contact_energy() - ledger_.damping_J - ledger_.boundary_J -
-         ledger_.wall_friction_J - ledger_.artificial_stress_J;
+         ledger_.wall_friction_J - ledger_.artificial_stress_J - images.axis_J - images.walls_J;
 }
 
 void Simulation::set_geostatic_stress(double k0) {

@@ -81,6 +81,12 @@ struct EnergyLedger {
   std::vector<double> heat_J;  // per material
 };
 
+// What the pairs with mirror images gave the real particles since the start, J: their stress
+// terms are not energy-conjugate (numerical; kernels/SphSolid.hpp, docs/sph.md).
+struct ImageWork {
+  double axis_J = 0, walls_J = 0;
+};
+
 // Energies of the real particles of one material, J (kernels/EnergyAccount.hpp).
 struct MaterialEnergy {
   double kinetic = 0, internal = 0, potential = 0, elastic = 0;
@@ -135,6 +141,8 @@ class Simulation {
   int material_index(const std::string& name) const;  // index in the deck's materials, -1: none
 
   Energies energies() const;
+  // The energy the mirror images' pairs gave the real particles (Particles::image_work).
+  ImageWork image_work() const;
   // Per deck material: kinetic, internal, gravitational and elastic strain energy; with
   // tied elements, their stress work, hourglass work and elastic energy are added to their
   // deck material (the nodes' motion is element_node_energy()).

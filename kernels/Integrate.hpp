@@ -11,9 +11,12 @@ namespace tamp {
 // v += dt_half * a / inertia (driven particles take their prescribed velocity);
 // the viscous heating rate is integrated with the same half step. `a` is the force per unit
 // (true) mass; a mass-scaled material (MaterialParams::inertia > 1) responds to it with its
-// larger inertia.
+// larger inertia. The work of the mirror images' pair force over the half kick, F . u dt/2
+// with u the mean of the velocities before and after (exactly the kinetic energy it gave),
+// is added to image_work (kernels/SphSolid.hpp).
 struct Kick {
-  ViewN<double, 2> v, a, v_prescribed;
+  ViewN<double, 2> v, a, v_prescribed, image_work;
+  ViewN<double, 4> image_force;
   View1<double> internal_energy, du_visc;
   View1<int> flags, material;
   Kokkos::View<const MaterialParams*, MemSpace> materials;
@@ -23,6 +26,7 @@ struct Kick {
       : materials(materials_in), dt_half(dt_half_in) {
     v = P.v; a = P.a; v_prescribed = P.v_prescribed;
     internal_energy = P.internal_energy; du_visc = P.du_visc; flags = P.flags; material = P.material;
+    image_force = P.image_force; image_work = P.image_work;
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
     if (flags(i) & FLAG_DRIVEN) {
@@ -30,6 +34,9 @@ struct Kick {
       v(i, 1) = v_prescribed(i, 1);
     } else {
       const double k = dt_half / materials(material(i)).inertia;
+      const double ur = v(i, 0) + 0.5 * k * a(i, 0), uz = v(i, 1) + 0.5 * k * a(i, 1);
+      image_work(i, 0) += dt_half * (image_force(i, 0) * ur + image_force(i, 1) * uz);
+      image_work(i, 1) += dt_half * (image_force(i, 2) * ur + image_force(i, 3) * uz);
       v(i, 0) += k * a(i, 0);
       v(i, 1) += k * a(i, 1);
     }

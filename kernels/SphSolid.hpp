@@ -40,6 +40,7 @@ struct SphParams {
 // material model, internal energy, artificial stress R. Writes only particle a.
 struct StrainRateAndStress {
   ViewN<double, 2> x, v;
+  ViewN<double, 2> image_work;  // in/out: += the stress power booked for pairs with mirror images (see below)
   View1<double> hoop_factor;  // out: chi, the hoop term is chi / r (see below)
   View1<double> pair_gradient_factor;  // out: (dW/dr)/r of every listed pair, 0 beyond the support
   View1<double> mass, rho, plastic_strain, compaction, internal_energy;
@@ -50,6 +51,7 @@ struct StrainRateAndStress {
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
   double dt;
+  int first_image = 2147483647;  // index of the first mirror image (n_real + n_tie); none by default
 
   // Built by name: the particle fields, the neighbour list, the pair factors it writes.
   StrainRateAndStress(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_out,
@@ -58,9 +60,16 @@ struct StrainRateAndStress {
       : pair_gradient_factor(pair_gradient_factor_out), materials(materials_in), p(p_in), dt(dt_in) {
     x = P.x; v = P.v; hoop_factor = P.hoop_factor; mass = P.mass; rho = P.rho;
     plastic_strain = P.plastic_strain; compaction = P.compaction; internal_energy = P.internal_energy;
-    sigma = P.sigma; art_stress = P.art_stress; material = P.material;
+    sigma = P.sigma; art_stress = P.art_stress; material = P.material; image_work = P.image_work;
     offsets = list.offsets; neighbours = list.neighbours;
   }
+  // Mirror images are not integrated: a pair of a real particle and an image is one-sided,
+  // and its stress terms are not the conjugates of the strain rates (docs/sph.md, "Energy
+  // of the image pairs"). What such pairs give the particles is summed per particle in
+  // image_work: here the part of a's stress power that its image pairs contribute (the
+  // image terms of the velocity gradient, with the same trapezoidal stress), and in the
+  // kicks the work of the image pairs' force (Acceleration's image_force). For real pairs
+  // the two parts cancel pair by pair; for image pairs the sum is a numerical energy source.
   KOKKOS_INLINE_FUNCTION void operator()(const int a) const {
     const Wendland2D W(p.h);
     const double xa = x(a, 0), za = x(a, 1);
@@ -69,6 +78,7 @@ struct StrainRateAndStress {
     const double inv_eta_a = 1.0 / (2.0 * pi * r_reg * rho(a));
     double G00 = 0, G01 = 0, G10 = 0, G11 = 0;  // sum V_b (v_b - v_a)_i dW/dx_j
     double B00 = 0, B01 = 0, B10 = 0, B11 = 0;  // sum V_b (x_b - x_a)_i dW/dx_j
+    double I[2][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}};  // the image pairs' part of G: [axis, walls][00, 01, 10, 11]
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
@@ -82,6 +92,11 @@ struct StrainRateAndStress {
       G10 += Vb * dvz * gr; G11 += Vb * dvz * gz;
       B00 -= Vb * dr * gr; B01 -= Vb * dr * gz;
       B10 -= Vb * dz * gr; B11 -= Vb * dz * gz;
+      if (b >= first_image) {
+        double* Ik = I[mass(b) < 0 ? 0 : 1];  // axis images (and corner images) carry negative ring mass
+        Ik[0] += Vb * dvr * gr; Ik[1] += Vb * dvr * gz;
+        Ik[2] += Vb * dvz * gr; Ik[3] += Vb * dvz * gz;
+      }
     }
     double L00 = G00, L01 = G01, L10 = G10, L11 = G11;
     if (p.kernel_correction) {
@@ -91,6 +106,11 @@ struct StrainRateAndStress {
         const double i00 = B11 / det, i01 = -B01 / det, i10 = -B10 / det, i11 = B00 / det;
         L00 = G00 * i00 + G01 * i10; L01 = G00 * i01 + G01 * i11;
         L10 = G10 * i00 + G11 * i10; L11 = G10 * i01 + G11 * i11;
+        for (auto& Ik : I) {  // the images' part of L = G B^-1, likewise
+          const double c00 = Ik[0] * i00 + Ik[1] * i10, c01 = Ik[0] * i01 + Ik[1] * i11;
+          const double c10 = Ik[2] * i00 + Ik[3] * i10, c11 = Ik[2] * i01 + Ik[3] * i11;
+          Ik[0] = c00; Ik[1] = c01; Ik[2] = c10; Ik[3] = c11;
+        }
       }
     }
     // Hoop factor chi/r. SPH's discrete radial first moment B00 = sum_b V_b (r_b - r_a)
@@ -138,6 +158,13 @@ struct StrainRateAndStress {
     for (int c = 0; c < 3; ++c) work += 0.5 * (s[c] + s_old[c]) * deps[c];
     work += 2.0 * 0.5 * (s[3] + s_old[3]) * deps[3];
     internal_energy(a) += work / (0.5 * (rho(a) + rho_new));
+    if (first_image < 2147483647)
+      for (int k = 0; k < 2; ++k) {  // the images' share of that work, same rule
+        const double* Ik = I[k];
+        const double w = 0.5 * ((s[0] + s_old[0]) * Ik[0] + (s[1] + s_old[1]) * Ik[3] +
+                                (s[3] + s_old[3]) * (Ik[1] + Ik[2])) * dt;
+        image_work(a, k) += w / (0.5 * (rho(a) + rho_new));
+      }
 
     for (int c = 0; c < 4; ++c) sigma(a, c) = s[c];
     plastic_strain(a) = eps_p;
@@ -174,6 +201,7 @@ struct Acceleration {
   ViewN<double, 2> x, v, a, a_ext;
   ViewN<double, 2> a_wall;    // out: the part of a from fixed-wall ghosts (if fixed_walls)
   ViewN<double, 2> a_art;     // out: the artificial stress's part of a (if artificial_stress_epsilon > 0)
+  ViewN<double, 4> image_force;  // out: the stress pair force of the images (axis r, z; walls r, z), if first_image is set
   View1<int> flags;
   View1<double> mass, rho, du_visc;
   ViewN<double, 4> sigma;
@@ -190,6 +218,7 @@ struct Acceleration {
   // division per pair were measurable in the step.
   Kokkos::View<const double*, MemSpace> wave_speeds;
   int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
+  int first_image = 2147483647;  // index of the first mirror image (n_real + n_tie); none by default
 
   // Built by name; the parts written apart (a_wall, a_art) and fixed_walls are set by the
   // caller by name.
@@ -201,7 +230,7 @@ struct Acceleration {
         artificial_stress_factors(artificial_stress_factors_in), wave_speeds(wave_speeds_in) {
     x = P.x; v = P.v; a = P.a; a_ext = P.a_ext; flags = P.flags; mass = P.mass; rho = P.rho;
     du_visc = P.du_visc; sigma = P.sigma; pair_stress = P.pair_stress; art_stress = P.art_stress;
-    material = P.material; hoop_factor = P.hoop_factor;
+    material = P.material; hoop_factor = P.hoop_factor; image_force = P.image_force;
     offsets = list.offsets; neighbours = list.neighbours;
   }
   KOKKOS_INLINE_FUNCTION void operator()(const int i) const {
@@ -215,6 +244,7 @@ struct Acceleration {
     const bool Ra_on = p.artificial_stress_epsilon > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = wave_speeds(material(i));
     double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
+    double image[4] = {0, 0, 0, 0};  // axis r, z; walls r, z
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
       const double f = pair_gradient_factor(k);
       if (f == 0.0) continue;
@@ -227,6 +257,11 @@ struct Acceleration {
       double Trr = mb * Sa_rr + pair_stress(b, 0);
       double Tzz = mb * Sa_zz + pair_stress(b, 1);
       double Trz = mb * Sa_rz + pair_stress(b, 2);
+      if (b >= first_image) {  // the stress pair force of an image (kernels/SphSolid.hpp, loop A)
+        const int k = mb < 0 ? 0 : 2;
+        image[k] += Trr * gr + Trz * gz;
+        image[k + 1] += Trz * gr + Tzz * gz;
+      }
       const double mb_abs = mb < 0 ? -mb : mb;
       const double rb = math::max(math::abs(x(b, 0)), p.r_min);
       const double ring = mb_abs / (pi * (r_reg + rb));  // |m_b| / (2 pi mean r) = planar mass
@@ -275,6 +310,8 @@ struct Acceleration {
       a_art(i, 0) = sr;
       a_art(i, 1) = sz;
     }
+    if (first_image < 2147483647)
+      for (int k = 0; k < 4; ++k) image_force(i, k) = image[k];
     ar -= sigma(i, 2) * hoop_factor(i) / (rhoa * r_reg);
     az -= p.gravity;
     // mass-proportional damping on the inertia: the same rate p.damping for a mass-scaled material

@@ -95,12 +95,19 @@ if blows is not None and "energy_in_J" in blows:
     ax.set_ylabel("% of the energy brought"); ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(f"{deck['run']['name']}: energy account of each blow (impact stage)")
-    ax2.bar(b, 100 * blows["residual_J"] / e_in, color="k", width=0.8)
+    images_fed = "axis_images_J" in blows
+    w = 0.4 if images_fed else 0.8
+    ax2.bar(b - (0.2 if images_fed else 0), 100 * blows["residual_J"] / e_in, color="k", width=w, label="residual")
+    if images_fed:  # a numerical source, counted as fed in (docs/sph.md, "Energy of the image pairs")
+        ax2.bar(b + 0.2, 100 * (blows["axis_images_J"] + blows["wall_images_J"]) / e_in, color="tab:orange", width=w,
+                label="fed in by the axis and wall images (numerical)")
+        ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax2.axhline(2, color="r", ls=":", lw=1); ax2.axhline(-2, color="r", ls=":", lw=1)
-    ax2.set_ylabel("residual, %"); ax2.set_xlabel("blow"); ax2.grid(alpha=0.3)
+    ax2.set_ylabel("% of the blow"); ax2.set_xlabel("blow"); ax2.grid(alpha=0.3)
     ax2.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     fig.tight_layout(); fig.savefig(P("energy-account.png"), dpi=120); plt.close(fig)
-    images.append(("Energy account per blow (residual below; +-2 % dotted)", "energy-account.png"))
+    images.append(("Energy account per blow (below: the residual and the energy fed in by the mirror images; "
+                   "+-2 % dotted)", "energy-account.png"))
 
 # 2. Tracers: vertical displacement against time (paper Figs. 8 and 10) ---------------------
 names = [k[:-5] for k in (tracers or {}) if k.endswith("_dz_m")]
@@ -228,18 +235,19 @@ if blows is not None:
     has = "deepest_m" in blows
     L += ["## Per blow", "", "| blow | H, m | crater depth at rest, mm | deepest, mm | floor after extraction, mm | "
           "penetration, mm | contacts | restitution | peak deceleration, m/s2 | uplift, mm | aggregate added, kg | "
-          "energy in, J | energy residual, % | backfill after |",
-          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+          "energy in, J | energy residual, % | fed in by the axis images, % | backfill after |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     g = lambda k, i, s=1e3, d=1: f"{s * blows[k][i]:.{d}f}" if k in blows else "n/a"
     for i in range(len(blows["blow"])):
         k = int(blows["blow"][i])
         res = (f"{100 * blows['residual_J'][i] / blows['energy_in_J'][i]:+.2f}" if "residual_J" in blows else "n/a")
+        img = (f"{100 * blows['axis_images_J'][i] / blows['energy_in_J'][i]:+.2f}" if "axis_images_J" in blows else "n/a")
         L.append(f"| {k} | {blows['drop_height_m'][i]:.2f} | {1e3 * blows['crater_depth_m'][i]:.1f} | "
                  f"{g('deepest_m', i)} | {g('crater_floor_m', i)} | "
                  f"{1e3 * blows['penetration_m'][i]:.1f} | {g('contacts', i, 1, 0)} | {g('restitution', i, 1, 3)} | "
                  f"{blows['peak_deceleration_m_s2'][i]:.0f} | "
                  f"{1e3 * blows['uplift_m'][i]:.1f} | {blows['aggregate_added_kg'][i]:.2f} | "
-                 f"{g('energy_in_J', i, 1, 1)} | {res} | {'yes' if k in backfill_after else ''} |")
+                 f"{g('energy_in_J', i, 1, 1)} | {res} | {img} | {'yes' if k in backfill_after else ''} |")
     if has and "rest_in_contact" in blows and (blows["rest_in_contact"] < 1).any():
         bad = [int(x) for x, r in zip(blows["blow"], blows["rest_in_contact"]) if r < 1]
         L += ["", f"Blows {bad} did not come to rest in contact within max_impact_time (recorded as they stood)."]
@@ -247,6 +255,12 @@ if blows is not None:
         over = [int(x) for x, r, e in zip(blows["blow"], blows["residual_J"], blows["energy_in_J"]) if abs(r) > 0.02 * e]
         L += ["", "Energy residual above 2 % of the energy brought: " + (f"blows {over}" if over else "none") +
               " (docs/drop-sequence.md, Energy account)."]
+    if "axis_images_J" in blows:
+        fed = [(int(x), 100 * a / e) for x, a, e in zip(blows["blow"], blows["axis_images_J"], blows["energy_in_J"])
+               if abs(a) > 0.02 * e]
+        L += ["", "Energy fed in (or taken out, < 0) by the pairs with the axis images above 2 % of the energy "
+              "brought, a numerical error of the axis treatment counted in the account (docs/sph.md, \"Energy of the "
+              "image pairs\"): " + (", ".join(f"blow {k} {p:+.1f} %" for k, p in fed) if fed else "none") + "."]
     L.append("")
 if notes:
     L += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]

@@ -150,11 +150,13 @@ TEST_CASE("Drop sequence: the CI scenario writes every output with sane values, 
     const double blow = col(b, "energy_in_J");
     std::printf("[drop] blow %zu energy: in %.3f J; plastic sand %.3f clay %.3f aggregate %.3f, elastic %.3f, viscous "
                 "%.3f, soil motion %.3f, radiated %.3f, damping %.3f, wall friction %.4f, contact %.3f; returned to "
-                "the pounder %.3f; residual %.4f J = %.2f %% of the energy brought (%.2f %% of m g H)\n",
+                "the pounder %.3f; fed in by the axis images %.3f, the wall images %.4f (numerical); residual %.4f J = "
+                "%.2f %% of the energy brought (%.2f %% of m g H)\n",
                 b + 1, col(b, "energy_in_J"), col(b, "plastic_sand_J"), col(b, "plastic_clay_J"),
                 col(b, "plastic_aggregate_J"), col(b, "elastic_J"), col(b, "viscous_heat_J"), col(b, "soil_motion_J"),
                 col(b, "radiated_J"), col(b, "damping_J"), col(b, "wall_friction_J"), col(b, "contact_J"),
-                col(b, "returned_J"), col(b, "residual_J"), 100 * col(b, "residual_J") / blow,
+                col(b, "returned_J"), col(b, "axis_images_J"), col(b, "wall_images_J"), col(b, "residual_J"),
+                100 * col(b, "residual_J") / blow,
                 100 * col(b, "residual_J") / mgh);
     CHECK(blow > mgh);
     CHECK(std::fabs(col(b, "residual_J")) < 0.02 * blow);

@@ -78,7 +78,9 @@ struct StrainRateAndStress {
     const double inv_eta_a = 1.0 / (2.0 * pi * r_reg * rho(a));
     double G00 = 0, G01 = 0, G10 = 0, G11 = 0;  // sum V_b (v_b - v_a)_i dW/dx_j
     double B00 = 0, B01 = 0, B10 = 0, B11 = 0;  // sum V_b (x_b - x_a)_i dW/dx_j
-    double I[2][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}};  // the image pairs' part of G: [axis, walls][00, 01, 10, 11]
+    // the image pairs' part of G: axis images (A) and wall images (W), components 00, 01, 10, 11
+    // (scalars, not an array: an indexed local array left the pair loop measurably slower)
+    double A00 = 0, A01 = 0, A10 = 0, A11 = 0, W00 = 0, W01 = 0, W10 = 0, W11 = 0;
     for (int k = offsets(a); k < offsets(a + 1); ++k) {
       const int b = neighbours(k);
       const double dr = xa - x(b, 0), dz = za - x(b, 1);
@@ -93,9 +95,11 @@ struct StrainRateAndStress {
       B00 -= Vb * dr * gr; B01 -= Vb * dr * gz;
       B10 -= Vb * dz * gr; B11 -= Vb * dz * gz;
       if (b >= first_image) {
-        double* Ik = I[mass(b) < 0 ? 0 : 1];  // axis images (and corner images) carry negative ring mass
-        Ik[0] += Vb * dvr * gr; Ik[1] += Vb * dvr * gz;
-        Ik[2] += Vb * dvz * gr; Ik[3] += Vb * dvz * gz;
+        if (Vb < 0) {  // axis images (and corner images) carry negative ring mass
+          A00 += Vb * dvr * gr; A01 += Vb * dvr * gz; A10 += Vb * dvz * gr; A11 += Vb * dvz * gz;
+        } else {
+          W00 += Vb * dvr * gr; W01 += Vb * dvr * gz; W10 += Vb * dvz * gr; W11 += Vb * dvz * gz;
+        }
       }
     }
     double L00 = G00, L01 = G01, L10 = G10, L11 = G11;
@@ -106,11 +110,13 @@ struct StrainRateAndStress {
         const double i00 = B11 / det, i01 = -B01 / det, i10 = -B10 / det, i11 = B00 / det;
         L00 = G00 * i00 + G01 * i10; L01 = G00 * i01 + G01 * i11;
         L10 = G10 * i00 + G11 * i10; L11 = G10 * i01 + G11 * i11;
-        for (auto& Ik : I) {  // the images' part of L = G B^-1, likewise
-          const double c00 = Ik[0] * i00 + Ik[1] * i10, c01 = Ik[0] * i01 + Ik[1] * i11;
-          const double c10 = Ik[2] * i00 + Ik[3] * i10, c11 = Ik[2] * i01 + Ik[3] * i11;
-          Ik[0] = c00; Ik[1] = c01; Ik[2] = c10; Ik[3] = c11;
-        }
+        // the images' part of L = G B^-1, likewise
+        double c00 = A00 * i00 + A01 * i10, c01 = A00 * i01 + A01 * i11;
+        double c10 = A10 * i00 + A11 * i10, c11 = A10 * i01 + A11 * i11;
+        A00 = c00; A01 = c01; A10 = c10; A11 = c11;
+        c00 = W00 * i00 + W01 * i10; c01 = W00 * i01 + W01 * i11;
+        c10 = W10 * i00 + W11 * i10; c11 = W10 * i01 + W11 * i11;
+        W00 = c00; W01 = c01; W10 = c10; W11 = c11;
       }
     }
     // Hoop factor chi/r. SPH's discrete radial first moment B00 = sum_b V_b (r_b - r_a)
@@ -158,13 +164,11 @@ struct StrainRateAndStress {
     for (int c = 0; c < 3; ++c) work += 0.5 * (s[c] + s_old[c]) * deps[c];
     work += 2.0 * 0.5 * (s[3] + s_old[3]) * deps[3];
     internal_energy(a) += work / (0.5 * (rho(a) + rho_new));
-    if (first_image < 2147483647)
-      for (int k = 0; k < 2; ++k) {  // the images' share of that work, same rule
-        const double* Ik = I[k];
-        const double w = 0.5 * ((s[0] + s_old[0]) * Ik[0] + (s[1] + s_old[1]) * Ik[3] +
-                                (s[3] + s_old[3]) * (Ik[1] + Ik[2])) * dt;
-        image_work(a, k) += w / (0.5 * (rho(a) + rho_new));
-      }
+    if (first_image < 2147483647) {  // the images' share of that work, same rule
+      const double k = 0.5 * dt / (0.5 * (rho(a) + rho_new));
+      image_work(a, 0) += k * ((s[0] + s_old[0]) * A00 + (s[1] + s_old[1]) * A11 + (s[3] + s_old[3]) * (A01 + A10));
+      image_work(a, 1) += k * ((s[0] + s_old[0]) * W00 + (s[1] + s_old[1]) * W11 + (s[3] + s_old[3]) * (W01 + W10));
+    }
 
     for (int c = 0; c < 4; ++c) sigma(a, c) = s[c];
     plastic_strain(a) = eps_p;
@@ -244,7 +248,7 @@ struct Acceleration {
     const bool Ra_on = p.artificial_stress_epsilon > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = wave_speeds(material(i));
     double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
-    double image[4] = {0, 0, 0, 0};  // axis r, z; walls r, z
+    double image_ar = 0, image_az = 0, image_wr = 0, image_wz = 0;  // the images' stress pair force: axis, walls
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
       const double f = pair_gradient_factor(k);
       if (f == 0.0) continue;
@@ -257,10 +261,12 @@ struct Acceleration {
       double Trr = mb * Sa_rr + pair_stress(b, 0);
       double Tzz = mb * Sa_zz + pair_stress(b, 1);
       double Trz = mb * Sa_rz + pair_stress(b, 2);
-      if (b >= first_image) {  // the stress pair force of an image (kernels/SphSolid.hpp, loop A)
-        const int k = mb < 0 ? 0 : 2;
-        image[k] += Trr * gr + Trz * gz;
-        image[k + 1] += Trz * gr + Tzz * gz;
+      if (b >= first_image) {  // the stress pair force of an image (see StrainRateAndStress)
+        if (mb < 0) {
+          image_ar += Trr * gr + Trz * gz; image_az += Trz * gr + Tzz * gz;
+        } else {
+          image_wr += Trr * gr + Trz * gz; image_wz += Trz * gr + Tzz * gz;
+        }
       }
       const double mb_abs = mb < 0 ? -mb : mb;
       const double rb = math::max(math::abs(x(b, 0)), p.r_min);
@@ -310,8 +316,10 @@ struct Acceleration {
       a_art(i, 0) = sr;
       a_art(i, 1) = sz;
     }
-    if (first_image < 2147483647)
-      for (int k = 0; k < 4; ++k) image_force(i, k) = image[k];
+    if (first_image < 2147483647) {
+      image_force(i, 0) = image_ar; image_force(i, 1) = image_az;
+      image_force(i, 2) = image_wr; image_force(i, 3) = image_wz;
+    }
     ar -= sigma(i, 2) * hoop_factor(i) / (rhoa * r_reg);
     az -= p.gravity;
     // mass-proportional damping on the inertia: the same rate p.damping for a mass-scaled material

@@ -566,7 +566,8 @@ void DropSequence::restore(const Checkpoint& c) {
   // A checkpoint written before the last columns were added reads them as 0 (ballistic_time_s,
   // 2026-12-02: no flight was jumped then; axis_images_J and wall_images_J, 2026-12-04: not
   // measured then). Any other width is another deck or an older Tamp.
-  const size_t first_added = 25;  // the columns up to rest_time_s
+  size_t first_added = 0;  // the columns before ballistic_time_s, the first one added later
+  while (first_added < cols.size() && std::string(cols[first_added].name) != "ballistic_time_s") ++first_added;
   const long nc_read = static_cast<long>(br.width) - 2 - static_cast<long>(nm);
   if (nc_read < static_cast<long>(first_added) || nc_read > static_cast<long>(cols.size()))
     throw std::invalid_argument("the checkpoint's blow table has " + std::to_string(br.width) + " columns; this version writes " +

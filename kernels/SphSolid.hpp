@@ -23,6 +23,9 @@
 
 namespace tamp {
 
+// first_image of the pair loops when the image pairs are not summed apart (no images known)
+constexpr int kNoImages = 2147483647;
+
 struct SphParams {
   double h = 0;               // smoothing length, m
   double alpha = 0.5;         // Monaghan viscosity, linear
@@ -51,7 +54,7 @@ struct StrainRateAndStress {
   Kokkos::View<const MaterialParams*, MemSpace> materials;
   SphParams p;
   double dt;
-  int first_image = 2147483647;  // index of the first mirror image (n_real + n_tie); none by default
+  int first_image = kNoImages;  // index of the first mirror image (n_real + n_tie); none by default
 
   // Built by name: the particle fields, the neighbour list, the pair factors it writes.
   StrainRateAndStress(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_out,
@@ -164,7 +167,7 @@ struct StrainRateAndStress {
     for (int c = 0; c < 3; ++c) work += 0.5 * (s[c] + s_old[c]) * deps[c];
     work += 2.0 * 0.5 * (s[3] + s_old[3]) * deps[3];
     internal_energy(a) += work / (0.5 * (rho(a) + rho_new));
-    if (first_image < 2147483647) {  // the images' share of that work, same rule
+    if (first_image < kNoImages) {  // the images' share of that work, same rule
       const double k = 0.5 * dt / (0.5 * (rho(a) + rho_new));
       image_work(a, 0) += k * ((s[0] + s_old[0]) * A00 + (s[1] + s_old[1]) * A11 + (s[3] + s_old[3]) * (A01 + A10));
       image_work(a, 1) += k * ((s[0] + s_old[0]) * W00 + (s[1] + s_old[1]) * W11 + (s[3] + s_old[3]) * (W01 + W10));
@@ -222,7 +225,7 @@ struct Acceleration {
   // division per pair were measurable in the step.
   Kokkos::View<const double*, MemSpace> wave_speeds;
   int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
-  int first_image = 2147483647;  // index of the first mirror image (n_real + n_tie); none by default
+  int first_image = kNoImages;  // index of the first mirror image (n_real + n_tie); none by default
 
   // Built by name; the parts written apart (a_wall, a_art) and fixed_walls are set by the
   // caller by name.
@@ -316,7 +319,7 @@ struct Acceleration {
       a_art(i, 0) = sr;
       a_art(i, 1) = sz;
     }
-    if (first_image < 2147483647) {
+    if (first_image < kNoImages) {
       image_force(i, 0) = image_ar; image_force(i, 1) = image_az;
       image_force(i, 2) = image_wr; image_force(i, 3) = image_wz;
     }

@@ -57,8 +57,10 @@ ObservationSet load_observations(const std::string& path) {
     throw DeckError(shown + ": " + key + " = " + value + " " + problem + "; allowed: " + allowed);
   };
   for (const auto& [k, v] : root)
-    if (k.str() != "scenario" && k.str() != "observations" && k.str() != "target_material")
-      bad(std::string(k.str()), "...", "is not a known key", "scenario, target_material, observations");
+    if (k.str() != "scenario" && k.str() != "observations" && k.str() != "target_material" &&
+        k.str() != "model_switches" && k.str() != "effects")
+      bad(std::string(k.str()), "...", "is not a known key",
+          "scenario, target_material, effects, model_switches, observations");
   ObservationSet set;
   set.file = path;
   const auto scen = root["scenario"].value<std::string>();
@@ -82,6 +84,24 @@ ObservationSet load_observations(const std::string& path) {
       bad("target_material", "...", "names no material", "a material name or a non-empty list of them");
     set.target_material = set.target_materials.front();
   }
+  // Lists of names (effects, model switches): strings, each once; the names are checked
+  // against the catalogues by the diagnosis (check_target_materials).
+  auto names = [&](const char* key, const std::string& example, std::vector<std::string>& out) {
+    const auto* node = root.get(key);
+    if (!node) return false;
+    const auto* list = node->as_array();
+    if (!list) bad(key, "...", "has the wrong type", "a list of names, e.g. [" + example + "]");
+    for (size_t i = 0; i < list->size(); ++i) {
+      const auto t = list->get(i)->value<std::string>();
+      if (!t || t->empty()) bad(std::string(key) + "[" + std::to_string(i) + "]", "...", "is not a name", "a string");
+      for (const auto& seen : out)
+        if (seen == *t) bad(key, "\"" + printable(*t) + "\"", "is named twice", "each name once");
+      out.push_back(*t);
+    }
+    return true;
+  };
+  names("model_switches", "\"modified-cam-clay\"", set.model_switches);
+  set.has_effects = names("effects", "\"compaction\", \"rate\"", set.effects);
   const auto* arr = root["observations"].as_array();
   if (!arr || arr->empty()) throw DeckError(shown + ": observations is missing; required: at least one [[observations]] entry");
   for (size_t i = 0; i < arr->size(); ++i) {
@@ -146,6 +166,16 @@ void write_observations(const std::string& path, const ObservationSet& set, cons
     o << "]\n";
   } else {
     o << "target_material = \"" << set.target_material << "\"\n";
+  }
+  if (set.has_effects) {
+    o << "effects = [";
+    for (size_t i = 0; i < set.effects.size(); ++i) o << (i ? ", " : "") << "\"" << set.effects[i] << "\"";
+    o << "]\n";
+  }
+  if (!set.model_switches.empty()) {
+    o << "model_switches = [";
+    for (size_t i = 0; i < set.model_switches.size(); ++i) o << (i ? ", " : "") << "\"" << set.model_switches[i] << "\"";
+    o << "]\n";
   }
   for (const auto& ob : set.observations) {
     o << "\n[[observations]]\nquantity = \"" << ob.quantity << "\"\n";

@@ -192,6 +192,15 @@ double get_param(const Config& cfg, const std::string& name) {
 
 void set_param(Config& cfg, const std::string& name, double value) { *param_ref(cfg, name) = value; }
 
+bool has_param(const Config& cfg, const std::string& name) {
+  try {
+    (void)get_param(cfg, name);
+    return true;
+  } catch (const std::invalid_argument&) {
+    return false;
+  }
+}
+
 // ------------------------------------------------------------------ residuals
 
 std::vector<Residual> residuals(const ObservationSet& data, const RunOutputs& run) {
@@ -675,9 +684,23 @@ const std::vector<EffectCandidate>& effect_catalogue() {
       // coordinate (the strength and the effect trade off along a narrow valley that a
       // simplex started at one end does not follow)
       {"compaction", {{"air_voids", 0.15}, {"crush_hardening", 0.0}}, {{"crush_pressure", 60e3}},
-       {400e3, 160e3, 60e3, 25e3, 10e3}},
-      {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.06, 0.15, 0.35, 0.8}},
-      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.85, 0.7, 0.5, 0.3}},
+       {400e3, 160e3, 60e3, 25e3, 10e3}, "", "", 0},
+      {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.06, 0.15, 0.35, 0.8}, "", "", 0},
+      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.85, 0.7, 0.5, 0.3}, "", "", 0},
+  };
+  return c;
+}
+
+const std::vector<EffectCandidate>& model_switch_catalogue() {
+  // Modified Cam-Clay for a Tresca clay (docs/modified-cam-clay.md): the clay compacts and
+  // hardens with the plastic volume it loses, and its strength grows with the mean stress.
+  // Fitted: lambda (how much it compacts, profiled from little to much above kappa) and the
+  // preconsolidation p_c0 in place of Su, started where the yield surface's top, q = M p_c0
+  // / 2, is the Tresca strength in triaxial compression (q = 2 Su): p_c0 = 4 Su / M.
+  // Fixed at typical values of a soft clay: kappa 0.04, M 0.9 (phi_cs about 23 deg), v0 2.2.
+  static const std::vector<EffectCandidate> c{
+      {"modified-cam-clay", {{"kappa", 0.04}, {"M", 0.9}, {"v0", 2.2}}, {{"lambda", 0.2}},
+       {0.06, 0.1, 0.2, 0.35, 0.6}, "modified-cam-clay", "p_c0", 4.0 / 0.9},
   };
   return c;
 }
@@ -688,9 +711,35 @@ void apply_effect(Config& cfg, const std::string& material, const std::string& e
     const EffectCandidate* e = nullptr;
     for (const auto& c : effect_catalogue())
       if (c.name == effect) e = &c;
-    if (!e) throw std::invalid_argument("effect '" + effect + "' is not known; allowed: none, compaction, rate, remoulding");
-    for (const auto& [k, v] : e->fixed) set_param(cfg, material + "." + k, v);
-    for (const auto& [k, v] : e->fitted) set_param(cfg, material + "." + k, v);
+    for (const auto& c : model_switch_catalogue())
+      if (c.name == effect) e = &c;
+    if (!e)
+      throw std::invalid_argument("effect '" + effect +
+                                  "' is not known; allowed: none, compaction, rate, remoulding, modified-cam-clay");
+    if (!e->model.empty()) {  // a model switch: the strength from the material's Su, then the new model's keys
+      MaterialSpec* m = nullptr;
+      for (auto& mm : cfg.materials)
+        if (mm.name == material) m = &mm;
+      if (!m) throw std::invalid_argument("effect '" + effect + "': the deck has no material '" + material + "'");
+      if (m->cohesion <= 0)
+        throw std::invalid_argument("effect '" + effect + "' on '" + material + "': its Su (c) is " +
+                                    std::to_string(m->cohesion) + "; allowed: Su > 0, from which " + e->strength +
+                                    " starts");
+      const double su = m->cohesion;
+      m->model = e->model;
+      // every key of the new model the switch names (fitted or not, e.g. v0), by the model's table
+      auto set_key = [&](const std::string& key, double v) {
+        for (const ModelKey* k : keys_of(material_model(*m)))
+          if (k->key == key) { key_value(*m, *k) = v; return; }
+        throw std::invalid_argument("effect '" + effect + "': model '" + e->model + "' has no key '" + key + "'");
+      };
+      set_key(e->strength, e->strength_per_su * su);
+      for (const auto& [k, v] : e->fixed) set_key(k, v);
+      for (const auto& [k, v] : e->fitted) set_key(k, v);
+    } else {
+      for (const auto& [k, v] : e->fixed) set_param(cfg, material + "." + k, v);
+      for (const auto& [k, v] : e->fitted) set_param(cfg, material + "." + k, v);
+    }
   }
   for (const auto& [k, v] : overrides) set_param(cfg, k.find('.') == std::string::npos ? material + "." + k : k, v);
 }
@@ -807,13 +856,26 @@ const std::vector<double>& profile_factors() {
 // (The strength and the effect trade off along a narrow valley that a simplex started at
 // one end does not follow; the grid finds the valley, the simplex its floor.)
 FitResult profile_fit(const Config& current, const std::vector<std::string>& current_params,
-                      const std::string& refit_param, const StepCandidate& cand, const ObservationSet& data,
+                      const std::string& refit_param0, const StepCandidate& cand, const ObservationSet& data,
                       const CalibrateOptions& opt) {
   Runner runner(opt);
   Config c = current;
   apply_effect(c, cand.material, cand.effect->name);
   const std::string key = cand.material + "." + cand.effect->fitted[0].first;
-  const double v0 = get_param(current, refit_param);
+  // A model switch replaces the parameters of its material that the new model does not have
+  // (Su of a Tresca clay) by its strength key: the same number of parameters as an effect.
+  std::vector<std::string> kept = current_params;
+  std::string refit_param = refit_param0;
+  if (!cand.effect->model.empty()) {
+    const std::string strength = cand.material + "." + cand.effect->strength;
+    kept.clear();
+    for (const auto& p : current_params) {
+      const std::string q = has_param(c, p) ? p : strength;
+      if (std::find(kept.begin(), kept.end(), q) == kept.end()) kept.push_back(q);
+    }
+    if (!has_param(c, refit_param)) refit_param = strength;
+  }
+  const double v0 = get_param(c, refit_param);
   std::vector<Config> batch;
   for (double g : cand.effect->grid)
     for (double f : profile_factors()) {
@@ -836,7 +898,7 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
     log::info("diagnose:   " + key + " = " + fmt_g(cand.effect->grid[i]) + ": chi2 " + fmt_g(row) + " (best " +
               refit_param + " of the scan)");
   }
-  std::vector<std::string> params = current_params;
+  std::vector<std::string> params = kept;
   for (const auto& [k, v] : cand.effect->fitted) params.push_back(cand.material + "." + k);
   CalibrateOptions fo = opt;
   fo.max_runs = 6 + 5 * static_cast<int>(params.size());
@@ -873,6 +935,20 @@ void check_target_materials(const ObservationSet& data, const Config& scenario) 
                       "; allowed: " + allowed);
     }
   }
+  auto check = [&](const std::vector<std::string>& names, const char* key, const std::vector<EffectCandidate>& catalogue,
+                   const char* what) {
+    std::string allowed;
+    for (const auto& c : catalogue) allowed += (allowed.empty() ? "" : ", ") + c.name;
+    for (size_t i = 0; i < names.size(); ++i) {
+      bool known = false;
+      for (const auto& c : catalogue) known = known || c.name == names[i];
+      if (!known)
+        throw DeckError(data.file + ": " + key + "[" + std::to_string(i) + "] = \"" + names[i] + "\" is not a known " +
+                        what + "; allowed: " + allowed);
+    }
+  };
+  check(data.effects, "effects", effect_catalogue(), "effect");
+  check(data.model_switches, "model_switches", model_switch_catalogue(), "model switch");
 }
 
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt0) {
@@ -899,11 +975,32 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   if (opt.baseline_params.empty()) opt.baseline_params = {data.target_material + ".Su"};
   const Config base = load_deck(data.scenario);
   check_target_materials(data, base);
-  // every effect of the catalogue on every target material
+  // every effect of the catalogue on every target material, and the model switches the data
+  // file asks for on every target material that has an undrained strength to start from
   std::vector<StepCandidate> remaining;
-  for (const auto& m : data.target_materials)
+  auto label = [&](const EffectCandidate& e, const std::string& m) {
+    return data.target_materials.size() > 1 ? e.name + " (" + m + ")" : e.name;
+  };
+  for (const auto& m : data.target_materials) {
     for (const auto& e : effect_catalogue())
-      remaining.push_back({&e, m, data.target_materials.size() > 1 ? e.name + " (" + m + ")" : e.name});
+      if (!data.has_effects || std::find(data.effects.begin(), data.effects.end(), e.name) != data.effects.end())
+        remaining.push_back({&e, m, label(e, m)});
+    for (const auto& e : model_switch_catalogue()) {
+      if (std::find(data.model_switches.begin(), data.model_switches.end(), e.name) == data.model_switches.end())
+        continue;
+      double su = 0;
+      for (const auto& mm : base.materials)
+        if (mm.name == m) su = mm.cohesion;
+      if (su > 0)
+        remaining.push_back({&e, m, label(e, m)});
+      else
+        log::info("diagnose: the model switch '" + e.name + "' is not tried on '" + m +
+                  "' (its Su is 0: no strength for " + e.strength + " to start from)");
+    }
+  }
+  // The parameter each profile refits with the effect: the baseline's strength, or after a
+  // model switch of its material the new model's strength key.
+  std::string refit_param = opt.baseline_params[0];
   log::info("diagnose: baseline fit of " + std::to_string(opt.baseline_params.size()) + " parameter(s)");
   // baseline: a coarse scan (factors 0.5-2 of the deck values), then Nelder-Mead
   const FitResult baseline0 = scan_then_polish(base, data, opt.baseline_params, {0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0},
@@ -926,7 +1023,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     runner.side_by_side(remaining.size(), [&](size_t i) {
       CalibrateOptions inner = opt.fit;
       inner.verbose = false;
-      refits[i] = profile_fit(current_cfg, current.names, opt.baseline_params[0], remaining[i], data, inner);
+      refits[i] = profile_fit(current_cfg, current.names, refit_param, remaining[i], data, inner);
     });
     for (size_t i = 0; i < remaining.size(); ++i) st.fits.emplace_back(remaining[i], refits[i]);
     // Fair comparison: the current model at each candidate's values of its own parameters;
@@ -934,20 +1031,26 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     // credited with what a better strength alone achieves).
     // The points are run as one batch; only one that fits better is fitted again (its point
     // from the cache, plus its Jacobian for the uncertainty).
+    // (Not for a model switch: its parameters are not the current model's.)
     std::vector<Config> probes;
-    for (const auto& [cand, f] : st.fits) {
+    std::vector<size_t> probed_fit;
+    for (size_t i = 0; i < st.fits.size(); ++i) {
+      const auto& [cand, f] = st.fits[i];
+      if (!cand.effect->model.empty()) continue;
       Config c = current_cfg;
       for (size_t j = 0; j < current.names.size(); ++j) set_param(c, f.names[j], f.values[j]);
       probes.push_back(c);
+      probed_fit.push_back(i);
     }
     const auto probed = runner.run(probes);
-    for (size_t i = 0; i < st.fits.size(); ++i) {
+    for (size_t q = 0; q < probes.size(); ++q) {
+      const size_t i = probed_fit[q];
       const StepCandidate& cand = st.fits[i].first;
-      if (!(chi2_of(data, probed[i]) < current.chi2)) continue;
+      if (!(chi2_of(data, probed[q]) < current.chi2)) continue;
       CalibrateOptions probe = opt.fit;
       probe.max_runs = 1 + static_cast<int>(current.names.size());  // the point itself (+ its Jacobian)
       probe.simplex_steps.assign(current.names.size(), 1e-6);
-      const FitResult b = calibrate(probes[i], data, current.names, probe);
+      const FitResult b = calibrate(probes[q], data, current.names, probe);
       if (b.chi2 < current.chi2) {
         log::info("diagnose: the current model at the '" + cand.label + "' fit's values fits better (chi2 " +
                   fmt_g(b.chi2) + " < " + fmt_g(current.chi2) + "): it becomes the current fit");
@@ -974,9 +1077,17 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     labels.push_back(cand.label);
     apply_effect(current_cfg, cand.material, cand.effect->name);
     current = f;
+    const bool switched = !cand.effect->model.empty();
+    if (switched && !has_param(current_cfg, refit_param)) refit_param = cand.material + "." + cand.effect->strength;
+    // What no longer applies: the selected candidate; after a model switch every other candidate
+    // on its material (the effects compose with Mohr-Coulomb/Tresca only, docs/effects.md);
+    // after an effect, the model switches of its material (they would drop the effect).
     std::vector<StepCandidate> left;
-    for (const auto& c : remaining)
-      if (!(c.effect == cand.effect && c.material == cand.material)) left.push_back(c);
+    for (const auto& c : remaining) {
+      const bool same = c.effect == cand.effect && c.material == cand.material;
+      const bool excluded = c.material == cand.material && (switched || !c.effect->model.empty());
+      if (!same && !excluded) left.push_back(c);
+    }
     remaining = left;
   }
   const std::string selected = join_labels(labels);
@@ -990,6 +1101,11 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   js["error_after"] = chosen->error;
   js["bic_margin"] = opt.bic_margin;
   js["target_materials"] = data.target_materials;
+  js["effects"] = nlohmann::ordered_json::array();
+  for (const auto& e : effect_catalogue())
+    if (!data.has_effects || std::find(data.effects.begin(), data.effects.end(), e.name) != data.effects.end())
+      js["effects"].push_back(e.name);
+  js["model_switches"] = data.model_switches;
   const UnexplainedResidual left = unexplained_residual(chosen->residuals, 2.0, static_cast<int>(chosen->names.size()));
   {
     nlohmann::ordered_json u;
@@ -1049,6 +1165,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     for (const auto& [cand, fit] : st.fits) {
       auto cj = fit_json(cand.label, fit);
       cj["material"] = cand.material;
+      cj["kind"] = cand.effect->model.empty() ? "effect" : "model switch";
       cj["bic_below_start"] = st.start.bic() - fit.bic();
       p["candidates"].push_back(cj);
     }

@@ -29,6 +29,8 @@ RunOutputs read_run_dir(const std::string& dir);
 // naming the parameter and what is allowed.
 double get_param(const Config& cfg, const std::string& name);
 void set_param(Config& cfg, const std::string& name, double value);
+// Whether `name` is a fittable parameter of the deck (of the material's current model).
+bool has_param(const Config& cfg, const std::string& name);
 
 struct Residual {
   const Observation* obs;
@@ -102,16 +104,26 @@ struct CalibrateOptions {
 FitResult calibrate(const Config& cfg, const ObservationSet& data, const std::vector<std::string>& params,
                     const CalibrateOptions& opt);
 
-// One entry of the effect catalogue, as the diagnosis tries it.
+// One entry of the effect catalogue, as the diagnosis tries it: an effect composed with the
+// material's model, or a constitutive-model switch (`model` set), which replaces the model.
 struct EffectCandidate {
-  std::string name;                          // "compaction", "rate", "remoulding"
+  std::string name;                          // "compaction", "rate", "remoulding", "modified-cam-clay"
   std::vector<std::pair<std::string, double>> fixed;  // keys set before the fit (material-relative)
   std::vector<std::pair<std::string, double>> fitted; // keys fitted, with starting values
   std::vector<double> grid;                  // profile: values of the (first) fitted key tried in turn
+  // A model switch: the material's model becomes `model`; its key `strength` takes the place
+  // of the material's baseline strength (the parameter the profile refits), started at
+  // strength_per_su times the material's current Su (c). Empty for an effect.
+  std::string model;
+  std::string strength;
+  double strength_per_su = 0;
 };
 const std::vector<EffectCandidate>& effect_catalogue();
-// Sets an effect's parameters on `material` ("none" sets nothing). `overrides` (key=value,
-// material-relative keys) replace the catalogue's defaults.
+// The constitutive-model switches a data file may ask for (`model_switches`).
+const std::vector<EffectCandidate>& model_switch_catalogue();
+// Sets an effect's parameters on `material` ("none" sets nothing), or switches its model
+// (a name of model_switch_catalogue()). `overrides` (key=value, material-relative keys)
+// replace the catalogue's defaults.
 void apply_effect(Config& cfg, const std::string& material, const std::string& effect,
                   const std::map<std::string, double>& overrides = {});
 

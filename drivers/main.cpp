@@ -73,8 +73,11 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
      << (cfg.run.max_steps > 0 ? ", at most " + std::to_string(cfg.run.max_steps) + " steps" : "") << "\n"
      << "particles:   " << sim.particle_count() << " (+" << sim.ghost_count()
      << " mirror), spacing " << cfg.sph.spacing << " m, h " << sim.smoothing_length() << " m\n"
-     << (sim.fem() ? "elements:    " + std::to_string(sim.fem()->mesh().n_elements) + " quads of at most " +
-                         fmt("%g", cfg.fem.element_size) + " m outside the SPH zone r < " + fmt("%g", cfg.fem.zone_r_max) +
+     << (sim.fem() ? "elements:    " + std::to_string(sim.fem()->mesh().n_elements) + " quads of " +
+                         fmt("%g", cfg.fem.element_size) + " m" +
+                         (cfg.fem.grading > 1.0 ? " at the SPH zone, graded x" + fmt("%g", cfg.fem.grading) + " per element away from it,"
+                                                : " at most,") +
+                         " outside the SPH zone r < " + fmt("%g", cfg.fem.zone_r_max) +
                          " m, z in [" + fmt("%g", cfg.fem.zone_z_min) + ", " + fmt("%g", cfg.fem.zone_z_max) + "] m; " +
                          std::to_string(sim.tie_particle_count()) + " tie particles on " +
                          std::to_string(sim.tie_edge_count()) + " interface edges\n"

@@ -119,7 +119,47 @@ KOKKOS_INLINE_FUNCTION QuadPoint quad_point(double xi, double eta, const double 
 }
 
 // Returns false for a degenerate or inverted element (det J <= 0 at a Gauss point).
+//
+// In closed form (the 2x2 Gauss sums of these polynomials, done once by hand; checked
+// against the Gauss sums in tests/test_fem.cpp): with the bilinear map
+//   r = a0 + a1 xi + a2 eta + a3 xi eta,  z = b0 + b1 xi + b2 eta + b3 xi eta,
+// det J = j0 + j1 xi + j2 eta (j0 = a1 b2 - a2 b1, j1 = a1 b3 - a3 b1, j2 = a3 b2 - a2 b3),
+// and node k at (xi, eta) = (s_k, t_k):
+//   V / 2 pi     = 4 a0 j0 + 4/3 (a1 j1 + a2 j2),       A = 4 j0
+//   br_k V / 2pi = s_k (a0 b2 + a1 b3/3) - t_k (a0 b1 + a2 b3/3) + s_k t_k (a2 b2 - a1 b1)/3
+//   bz_k V / 2pi = -[s_k (a0 a2 + a1 a3/3) - t_k (a0 a1 + a2 a3/3) + s_k t_k (a2^2 - a1^2)/3]
+//   bt_k V / 2pi = j0 + (s_k j1 + t_k j2)/3
+// (the element pass evaluates this twice per element and step: the Gauss loops were 15 % of
+// the lab job's time, perf/RESULTS.md).
 KOKKOS_INLINE_FUNCTION bool quad_geometry(const double r[4], const double z[4], QuadGeometry& g) {
+  const double a0 = 0.25 * (r[0] + r[1] + r[2] + r[3]), a1 = 0.25 * (-r[0] + r[1] + r[2] - r[3]);
+  const double a2 = 0.25 * (-r[0] - r[1] + r[2] + r[3]), a3 = 0.25 * (r[0] - r[1] + r[2] - r[3]);
+  // (b0 does not enter: a translation in z changes nothing)
+  const double b1 = 0.25 * (-z[0] + z[1] + z[2] - z[3]);
+  const double b2 = 0.25 * (-z[0] - z[1] + z[2] + z[3]), b3 = 0.25 * (z[0] - z[1] + z[2] - z[3]);
+  const double j0 = a1 * b2 - a2 * b1, j1 = a1 * b3 - a3 * b1, j2 = a3 * b2 - a2 * b3;
+  const double third = 1.0 / 3.0;
+  const double v = 4.0 * a0 * j0 + 4.0 * third * (a1 * j1 + a2 * j2);  // V / 2 pi
+  g.volume = 2.0 * pi * v;
+  g.area = 4.0 * j0;
+  if (!(g.volume > 0)) return false;
+  const double inv = 1.0 / v;
+  const double br_s = a0 * b2 + third * a1 * b3, br_t = a0 * b1 + third * a2 * b3, br_st = third * (a2 * b2 - a1 * b1);
+  const double bz_s = a0 * a2 + third * a1 * a3, bz_t = a0 * a1 + third * a2 * a3, bz_st = third * (a2 * a2 - a1 * a1);
+  const double s[4] = {-1, 1, 1, -1}, t[4] = {-1, -1, 1, 1};
+  for (int k = 0; k < 4; ++k) {
+    g.br[k] = (s[k] * br_s - t[k] * br_t + s[k] * t[k] * br_st) * inv;
+    g.bz[k] = -(s[k] * bz_s - t[k] * bz_t + s[k] * t[k] * bz_st) * inv;
+    g.bt[k] = (j0 + third * (s[k] * j1 + t[k] * j2)) * inv;
+  }
+  // det J at the four Gauss points (+-1/sqrt 3, +-1/sqrt 3): the smallest is j0 - (|j1| + |j2|)/sqrt 3
+  const double gp = 0.57735026918962576451;
+  return j0 - gp * (math::abs(j1) + math::abs(j2)) > 0;
+}
+
+// The same by 2x2 Gauss quadrature, as the closed form above was derived from: the test's
+// reference (tests/test_fem.cpp).
+KOKKOS_INLINE_FUNCTION bool quad_geometry_gauss(const double r[4], const double z[4], QuadGeometry& g) {
   const double gp = 0.57735026918962576451;  // 1/sqrt(3)
   const double pts[2] = {-gp, gp};
   double V = 0, A = 0;

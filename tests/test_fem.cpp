@@ -131,6 +131,65 @@ bool on_free_boundary(const DistortedMesh& d, int n) {  // outer, bottom or top 
 
 }  // namespace
 
+// The element geometry in closed form (quad_geometry, evaluated twice per element and
+// step) against the 2x2 Gauss sums it was derived from (quad_geometry_gauss): both integrate
+// the same polynomials exactly, so they differ by round-off only. Tolerance 1e-12 of the
+// largest gradient entry (1/m) and of the volume: about 1e4 times the double epsilon for
+// sums of a dozen terms; an error in a formula would show at order 1.
+TEST_CASE("FEM: the closed-form element geometry equals its Gauss quadrature", "[fem]") {
+  std::mt19937 gen(2026);
+  std::uniform_real_distribution<double> u(-0.3, 0.3), size(0.002, 0.2), centre(0.0, 1.0);
+  int checked = 0, inverted = 0;
+  double worst = 0;  // largest difference relative to its tolerance's scale
+  for (int trial = 0; trial < 20000; ++trial) {
+    const double L = size(gen);
+    const double rc = trial % 4 == 0 ? 0.5 * L : centre(gen);  // every 4th touches the axis
+    const double zc = centre(gen);
+    const double xs[4] = {-1, 1, 1, -1}, es[4] = {-1, -1, 1, 1};
+    double r[4], z[4];
+    for (int k = 0; k < 4; ++k) {
+      r[k] = std::max(0.0, rc + 0.5 * L * (xs[k] + (trial % 3 == 0 ? 3 : 1) * u(gen)));
+      z[k] = zc + 0.5 * L * (es[k] + (trial % 3 == 0 ? 3 : 1) * u(gen));
+    }
+    if (trial % 10 == 1) {  // a bow tie: det J changes sign inside the element
+      std::swap(r[2], r[3]);
+      std::swap(z[2], z[3]);
+    } else if (trial % 10 == 2) {  // clockwise: det J < 0 everywhere
+      std::swap(r[1], r[3]);
+      std::swap(z[1], z[3]);
+    }
+    QuadGeometry a, b;
+    const bool ok_a = quad_geometry(r, z, a), ok_b = quad_geometry_gauss(r, z, b);
+    // Valid or not, both must agree, away from a round-off tie at det J = 0 or V = 0.
+    double det_min = 1e300;
+    for (double xi : {-0.57735026918962576, 0.57735026918962576})
+      for (double eta : {-0.57735026918962576, 0.57735026918962576})
+        det_min = std::min(det_min, quad_point(xi, eta, r, z).detJ);
+    if (std::abs(det_min) > 1e-9 * L * L && std::abs(b.volume) > 1e-9 * L * L * L) REQUIRE(ok_a == ok_b);
+    if (!ok_b) {
+      ++inverted;
+      continue;
+    }
+    double scale = 0;
+    for (int k = 0; k < 4; ++k) scale = std::max({scale, std::abs(b.br[k]), std::abs(b.bz[k]), std::abs(b.bt[k])});
+    REQUIRE(std::abs(a.volume - b.volume) <= 1e-12 * std::abs(b.volume));
+    REQUIRE(std::abs(a.area - b.area) <= 1e-12 * std::abs(b.area));
+    worst = std::max({worst, std::abs(a.volume - b.volume) / std::abs(b.volume), std::abs(a.area - b.area) / std::abs(b.area)});
+    for (int k = 0; k < 4; ++k) {
+      worst = std::max({worst, std::abs(a.br[k] - b.br[k]) / scale, std::abs(a.bz[k] - b.bz[k]) / scale,
+                        std::abs(a.bt[k] - b.bt[k]) / scale});
+      REQUIRE(std::abs(a.br[k] - b.br[k]) <= 1e-12 * scale);
+      REQUIRE(std::abs(a.bz[k] - b.bz[k]) <= 1e-12 * scale);
+      REQUIRE(std::abs(a.bt[k] - b.bt[k]) <= 1e-12 * scale);
+    }
+    ++checked;
+  }
+  std::printf("[fem geometry] %d quads valid, %d inverted (both agree); worst relative difference %.1e\n", checked,
+              inverted, worst);
+  CHECK(checked > 10000);
+  CHECK(inverted > 3000);  // the bow ties and clockwise quads, a fifth: both must say so
+}
+
 TEST_CASE("FEM: patch test on distorted quads touching the axis", "[fem]") {
   const DistortedMesh d = distorted_mesh();
   const MaterialParams mat = lab_clay();

@@ -742,7 +742,7 @@ double DropSequence::uplift(const ParticleSurvey& survey) const {
   for (const auto& b : cfg_.blocks) r_out = std::max(r_out, b.r_max);
   double r_in = 0.5 * cfg_.pounder.max_diameter;
   const ColumnSummary c = column(survey);
-  r_in = std::max(r_in, 0.5 * c.head_diameter_m);
+  r_in = std::max(r_in, 0.5 * c.head_solid_diameter_m);  // (the rim leans over the outline)
   const std::vector<double> top = survey.soil_surface(backfill_material_, r_out, 3);
   double best = -1e300;
   for (size_t k = 0; k < top.size(); ++k) {
@@ -755,37 +755,57 @@ double DropSequence::uplift(const ParticleSurvey& survey) const {
 ColumnSummary DropSequence::column() const { return column(survey()); }
 
 ColumnSummary DropSequence::column(const ParticleSurvey& survey) const {
+  if (backfill_material_ < 0) return {};
+  return measure_column(survey, backfill_material_, ground_, cfg_.sph.spacing);
+}
+
+ColumnSummary measure_column(const ParticleSurvey& survey, int aggregate, double ground, double dp) {
   ColumnSummary c;
-  if (backfill_material_ < 0) return c;
-  const double dp = cfg_.sph.spacing;
-  const MaterialBands bands = survey.bands(backfill_material_);
+  // Bands of one spacing with edges at whole spacings below the original ground (or below
+  // the aggregate's top + dp/2 where that is lower), so that the head's bands do not move
+  // with the grains heaped above the ground (MaterialBands).
+  const MaterialBands bands = survey.bands(aggregate, ground);
   if (!bands.any) return c;
-  const double z_top = bands.z_top, z_bot = bands.z_bot;
   c.aggregate_kg = bands.mass_kg;
-  // Bands of one spacing from the top of the aggregate down. Diameter of a band: that of the
-  // solid cylinder holding the band's aggregate volume, d = 2 sqrt(V_b / (pi dp)), V_b the sum
-  // of the ring volumes m / rho. Robust at particle resolution, where the outermost grain
-  // is not: one grain thrown out over the heaved surface at r = 0.27 m made a 552 mm
-  // "largest diameter" under the former rule (2 (largest r + dp/2)).
   const std::vector<double>& volume = bands.volume_m3;
   const int nb = static_cast<int>(volume.size());
-  for (int b = 0; b < nb; ++b)
-    if (volume[b] > 0) c.rows.push_back({ground_ - (z_top - b * dp), 2.0 * std::sqrt(volume[b] / (pi * dp))});
-  c.length_m = (std::min(z_top + 0.5 * dp, ground_)) - (z_bot - 0.5 * dp);
-  // head and base: mean diameter of the top / bottom 30 mm (at least one band) of the column
-  // in the ground: the head starts at the original ground level (aggregate heaped above it
-  // is loose grains, not the column's head), or at the aggregate's top if that is lower
+  const double z_bot = bands.z_bot;
+  // the column in the ground runs from z_ref = min(aggregate's top + dp/2, ground) down
+  c.length_m = bands.z_ref - (z_bot - 0.5 * dp);
+  // head and base: mean diameter of the bands whose centres lie within the top / bottom
+  // 30 mm (at least one band) of the column in the ground: the head starts at z_ref
+  // (aggregate heaped above the ground is loose grains, not the column's head); the widest
+  // band is sought in the ground too
   const double band = std::max(0.03, dp);
-  const double head_top = std::min(z_top, ground_);
-  double hs = 0, bs = 0;
+  double hs = 0, hs_solid = 0, bs = 0;
   int hn = 0, bn = 0;
-  for (const auto& r : c.rows) {
-    c.max_diameter_m = std::max(c.max_diameter_m, r.diameter_m);
-    const double zc = ground_ - r.depth_m;
-    if (zc <= head_top + 0.5 * dp && zc >= head_top - band + 1e-12) { hs += r.diameter_m; ++hn; }
-    if (ground_ - r.depth_m <= z_bot + band - 1e-12) { bs += r.diameter_m; ++bn; }
+  for (int b = 0; b < nb; ++b) {
+    if (!(volume[b] > 0)) continue;
+    const double zc = bands.z_edge - (b + 0.5) * dp;
+    // Two diameters of a band. Solid: that of the cylinder that holds the band's aggregate
+    // volume, 2 sqrt(V_b / (pi dp)), V_b the sum of the ring volumes m / rho: a lower bound,
+    // blind to the voids between separated grains (the loose top of a column has its
+    // particles 1.5-2 spacings apart at their own density). Outline: the hole in the soil
+    // around it, 2 (r_wall - dp/2), r_wall the innermost soil particle of the band with 3
+    // soil neighbours: what the lab measured on the excavated column. The band's diameter
+    // is the larger (the outline where the wall stands, the solid where soil mixed in).
+    const double solid = 2.0 * std::sqrt(volume[b] / (pi * dp));
+    const double wall = bands.wall_r_m[b];
+    const double d = std::isfinite(wall) ? std::max(solid, 2.0 * (wall - 0.5 * dp)) : solid;
+    c.rows.push_back({ground - zc, d, solid});
+    if (b < bands.first_below) continue;  // heaped above the ground
+    c.max_diameter_m = std::max(c.max_diameter_m, d);
+    c.max_solid_diameter_m = std::max(c.max_solid_diameter_m, solid);
+    const double below_top = bands.z_ref - zc;  // of the band's centre
+    if (below_top <= band + 1e-12 || b == bands.first_below) {
+      hs += d;
+      hs_solid += solid;
+      ++hn;
+    }
+    if (zc <= z_bot + band - 1e-12 || b == nb - 1) { bs += d; ++bn; }
   }
   c.head_diameter_m = hn ? hs / hn : 0.0;
+  c.head_solid_diameter_m = hn ? hs_solid / hn : 0.0;
   c.base_diameter_m = bn ? bs / bn : 0.0;
   return c;
 }
@@ -839,8 +859,8 @@ void DropSequence::write_tables(double wall_s) const {
   if (next_stage_ < static_cast<int>(stages_.size())) return;
   const ColumnSummary c = column();
   std::vector<std::vector<double>> crow;
-  for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m});
-  write_csv(out_ + "/column.csv", {"depth_m", "diameter_m"}, crow);
+  for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m, r.solid_diameter_m});
+  write_csv(out_ + "/column.csv", {"depth_m", "diameter_m", "solid_diameter_m"}, crow);
   nlohmann::ordered_json js;  // every number to full (round-trip) precision; NaN as null
   for (const auto& [key, value] : summary(wall_s)) js[key] = value;
   std::ofstream(out_ + "/summary.json") << js.dump(2) << "\n";
@@ -855,6 +875,8 @@ std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s)
           {"head_diameter_m", c.head_diameter_m},
           {"max_diameter_m", c.max_diameter_m},
           {"base_diameter_m", c.base_diameter_m},
+          {"head_solid_diameter_m", c.head_solid_diameter_m},
+          {"max_solid_diameter_m", c.max_solid_diameter_m},
           {"uplift_m", uplift(now)},
           {"aggregate_total_kg", c.aggregate_kg},
           {"blows_completed", double(completed)},

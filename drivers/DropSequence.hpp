@@ -71,15 +71,21 @@ struct BlowColumn {
 const std::vector<BlowColumn>& blow_columns();
 
 struct ColumnRow {
-  double depth_m;     // below the original ground level, centre of the band
-  double diameter_m;  // of the aggregate body in the band
+  double depth_m;           // below the original ground level, centre of the band
+  double diameter_m;        // of the column in the band: the hole in the soil it fills
+  double solid_diameter_m;  // of the solid cylinder holding the band's aggregate volume
 };
 
 struct ColumnSummary {
   double length_m = 0, head_diameter_m = 0, max_diameter_m = 0, base_diameter_m = 0;
+  double head_solid_diameter_m = 0, max_solid_diameter_m = 0;  // the same from the solid diameters
   double aggregate_kg = 0;
   std::vector<ColumnRow> rows;
 };
+
+// The column of aggregate (material `aggregate`) the particles hold, measured in bands of
+// one spacing dp below the original ground level `ground` (m): docs/drop-sequence.md.
+ColumnSummary measure_column(const ParticleSurvey& survey, int aggregate, double ground, double dp);
 
 enum class StageKind { Relax, Impact, Extract, Backfill };
 // Where the steps and the wall time of a drop sequence go (timing.csv): the impact stages

@@ -8,8 +8,10 @@
 // sites x particles. Maxima and minima are exact whatever the order; sums go through
 // kernels/DeterministicSum.hpp, so a measurement is the same on any back end and thread count.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "core/Particles.hpp"
@@ -19,13 +21,24 @@
 
 namespace tamp {
 
-// The aggregate (one material) of the particles in bands of one spacing from its top down:
-// the band of a particle is min(bands - 1, floor((z_top + dp/2 - z) / dp)).
+// The aggregate (one material) of the particles in bands of one spacing dp, from its top
+// down. The band edges lie at whole spacings from a reference height z_ref = min(z_top +
+// dp/2, z_cap): with z_cap the original ground, the bands below the ground are the same
+// whatever grains lie heaped above it (issue 11: bands laid from the top grain down moved
+// the head's 30 mm by up to half a band between runs that differ by round-off). Band 0 is
+// the highest; bands 0 .. first_below - 1 lie above z_ref, band b spans
+// (z_edge - (b + 1) dp, z_edge - b dp], z_edge = z_ref + first_below dp.
 struct MaterialBands {
   bool any = false;
   double z_top = 0, z_bot = 0;  // highest and lowest particle centre, m
+  double z_ref = 0, z_edge = 0;  // the reference height and the top edge of band 0, m
+  int first_below = 0;           // index of the first band below z_ref
   double mass_kg = 0;
   std::vector<double> volume_m3;  // sum of m / rho per band (ring volumes)
+  // per band: the smallest radius of a particle of any other material that has at least 3
+  // such neighbours within 1.5 dp (the wall of the hole the material fills: the clay or
+  // sand around the column; a lone entrained particle does not count), m; +inf if none
+  std::vector<double> wall_r_m;
 };
 
 // A candidate crater site: the centre of cell (column k, any height z) of a regular grid of
@@ -138,8 +151,9 @@ class ParticleSurvey {
     return to_host(top);
   }
 
-  // The particles of one material in bands of one spacing (MaterialBands).
-  MaterialBands bands(int material) const {
+  // The particles of one material in bands of one spacing with edges at whole spacings from
+  // min(z_top + dp/2, z_cap) (MaterialBands).
+  MaterialBands bands(int material, double z_cap) const {
     MaterialBands out;
     if (material < 0 || n_ == 0) return out;
     const auto x = x_;
@@ -160,19 +174,38 @@ class ParticleSurvey {
     out.any = true;
     out.z_top = zr.max_val;
     out.z_bot = zr.min_val;
-    const double dp = dp_, z_top = out.z_top;
-    const int nb = static_cast<int>(std::floor((out.z_top - out.z_bot) / dp)) + 1;
+    const double dp = dp_;
+    const double z_ref = std::min(out.z_top + 0.5 * dp, z_cap);
+    // a particle's band below z_ref: floor((z_ref - z) / dp), negative above it
+    const int above = std::max(0, -static_cast<int>(std::floor((z_ref - out.z_top) / dp)));
+    const int nb = static_cast<int>(std::floor((z_ref - out.z_bot) / dp)) + above + 1;
+    out.z_ref = z_ref;
+    out.first_below = above;
+    out.z_edge = z_ref + above * dp;
     // slot 0: the mass; slots 1..nb: the band volumes
     const std::vector<double> sums = fixed_order_sums(
         "tamp::survey::bands", n_, nb + 1, KOKKOS_LAMBDA(int i, double* s) {
           if (mat(i) != material) return;
-          const int b0 = static_cast<int>(math::floor((z_top + 0.5 * dp - x(i, 1)) / dp));
-          const int b = b0 < nb - 1 ? b0 : nb - 1;
+          const int b0 = static_cast<int>(math::floor((z_ref - x(i, 1)) / dp)) + above;
+          const int b = b0 < 0 ? 0 : (b0 < nb - 1 ? b0 : nb - 1);  // round-off at the ends
           s[0] += m(i);
           s[1 + b] += m(i) / rho(i);
         });
     out.mass_kg = sums[0];
     out.volume_m3.assign(sums.begin() + 1, sums.end());
+    // the wall around it: a minimum, exact in any order
+    View1<double> wall("tamp::survey::wall_r", nb);
+    Kokkos::deep_copy(wall, std::numeric_limits<double>::infinity());
+    View1<int> count("tamp::survey::count", n_);
+    Kokkos::parallel_for("tamp::survey::count_near", Kokkos::RangePolicy<ExecSpace>(0, n_),
+                         detail::CountNear{grid(), material_, count, material});
+    Kokkos::parallel_for(
+        "tamp::survey::band_wall", Kokkos::RangePolicy<ExecSpace>(0, n_), KOKKOS_LAMBDA(int i) {
+          if (mat(i) == material || count(i) < 3) return;
+          const int b = static_cast<int>(math::floor((z_ref - x(i, 1)) / dp)) + above;
+          if (b >= 0 && b < nb) Kokkos::atomic_fetch_min(&wall(b), x(i, 0));
+        });
+    out.wall_r_m = to_host(wall);
     return out;
   }
 

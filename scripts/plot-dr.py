@@ -145,6 +145,9 @@ if stages:
         zc = ground - column["depth_m"]
         ax.plot(column["diameter_m"] / 2, zc, "r-", lw=1.5, label="column outline (column.csv)")
         ax.plot(-column["diameter_m"] / 2, zc, "r-", lw=1.5)
+        if "solid_diameter_m" in column:  # results from before 2026-12-05 have none
+            ax.plot(column["solid_diameter_m"] / 2, zc, "r:", lw=1, label="solid diameter (aggregate volume)")
+            ax.plot(-column["solid_diameter_m"] / 2, zc, "r:", lw=1)
     ax.axhline(ground, color="0.3", lw=0.8, ls="--", label="original ground")
     lo, hi = meas["column_max_diameter"]
     for s in (1, -1):  # lab max-diameter band on both sides

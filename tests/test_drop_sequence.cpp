@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
+#include <array>
 #include <sstream>
 
 #include "SphTestUtil.hpp"
@@ -381,4 +382,77 @@ TEST_CASE("Restart: from the end of an extraction or a charge, through charges a
           "uninterrupted one bit for bit",
           "[restart][drop-sequence]") {
   check_restarts_exact({"006-extract-blow03", "007-backfill-blow03"}, "exact");
+}
+
+// The column measure (docs/drop-sequence.md "Column"): a column of known diameter 2 n dp on a
+// lattice in a clay wall, with grains heaped above the original ground at heights that put
+// the aggregate's top anywhere within a spacing. Exact answers (1e-12 relative, round-off):
+// - the outline, the hole in the clay 2 (r_wall - dp/2) with the wall's first ring at
+//   (n + 1/2) dp, is 2 n dp: the head, the widest band and the base, whatever the heap;
+// - the solid diameter 2 sqrt(V_b / (pi dp)) of a band of n rings r = (i + 1/2) dp (ring
+//   volume 2 pi r dp^2) is also 2 n dp; with every other ring left out (a loose column,
+//   grains two spacings apart) it is 2 dp sqrt(sum of the kept (2 i + 1)), while the
+//   outline stays 2 n dp;
+// - a lone clay particle inside the column (fewer than 3 clay neighbours) is not the wall;
+//   without any wall the band's diameter is the solid one;
+// - the length is the lattice's extent in the ground.
+// Bands laid from the top grain down (the rule until 2026-12-05) averaged a half-empty band
+// of heap grains into the head for some of these heaps.
+TEST_CASE("Column: head, widest band and length measured in bands fixed below the original ground, as the hole in "
+          "the clay, whatever grains lie heaped above it",
+          "[drop-sequence][column]") {
+  const double dp = 0.01, ground = 0.5, rho = 1900.0;
+  const int n = 7, rows = 30, aggregate = 2;
+  const double d_exact = 2 * n * dp;
+  double loose_sum = 0;
+  for (int i = 0; i < n; i += 2) loose_sum += 2 * i + 1;
+  for (int variant = 0; variant < 3; ++variant) {  // 0: dense column in clay, 1: loose column in clay, 2: no clay
+    for (double shift : {-0.003, 0.0, 0.0025}) {    // lattice rows at ground - (k + 1/2) dp + shift
+      for (double heap_top : {-1.0, 0.0005, 0.002, 0.0049, 0.006, 0.012, 0.023}) {  // above the ground, m (-1: none)
+        std::vector<std::array<double, 2>> xs;
+        for (int k = 0; k < rows; ++k)
+          for (int i = 0; i < n; i += variant == 1 ? 2 : 1) xs.push_back({(i + 0.5) * dp, ground - (k + 0.5) * dp + shift});
+        for (double z = ground + heap_top; heap_top > 0 && z > ground + 1e-4; z -= dp)
+          for (int i = 0; i < 3; ++i) xs.push_back({(i + 0.5) * dp, z});  // a narrower heap, 60 mm
+        const int n_agg = static_cast<int>(xs.size());
+        if (variant != 2) {
+          for (int k = 0; k < rows; ++k)  // the clay wall, 5 rings thick
+            for (int i = n; i < n + 5; ++i) xs.push_back({(i + 0.5) * dp, ground - (k + 0.5) * dp});
+          if (variant == 1) xs.push_back({1.5 * dp, ground - 10.3 * dp + shift});  // a lone entrained clay particle
+        }
+        tamp::Particles P;
+        const int N = static_cast<int>(xs.size());
+        P.reserve(N);
+        P.n_real = N;
+        auto x = Kokkos::create_mirror_view(P.x);
+        auto m = Kokkos::create_mirror_view(P.mass);
+        auto r = Kokkos::create_mirror_view(P.rho);
+        auto mat = Kokkos::create_mirror_view(P.material);
+        for (int p = 0; p < N; ++p) {
+          x(p, 0) = xs[p][0];
+          x(p, 1) = xs[p][1];
+          r(p) = rho;
+          m(p) = rho * 2 * tamp::pi * xs[p][0] * dp * dp;
+          mat(p) = p < n_agg ? aggregate : 1;
+        }
+        Kokkos::deep_copy(P.x, x);
+        Kokkos::deep_copy(P.mass, m);
+        Kokkos::deep_copy(P.rho, r);
+        Kokkos::deep_copy(P.material, mat);
+        const tamp::ColumnSummary c = tamp::measure_column(tamp::ParticleSurvey(P, dp), aggregate, ground, dp);
+        INFO("variant " << variant << ", lattice shift " << shift << " m, heap top " << heap_top
+                        << " m above the ground: head " << c.head_diameter_m << " (solid " << c.head_solid_diameter_m
+                        << "), max " << c.max_diameter_m << ", base " << c.base_diameter_m << ", length " << c.length_m);
+        const double solid = variant == 1 ? 2 * dp * std::sqrt(loose_sum) : d_exact;
+        const double outline = variant == 2 ? solid : d_exact;
+        CHECK(c.head_diameter_m == Approx(outline).epsilon(1e-12));
+        CHECK(c.max_diameter_m == Approx(outline).epsilon(1e-12));
+        CHECK(c.base_diameter_m == Approx(outline).epsilon(1e-12));
+        CHECK(c.head_solid_diameter_m == Approx(solid).epsilon(1e-12));
+        CHECK(c.max_solid_diameter_m == Approx(solid).epsilon(1e-12));
+        const double top = heap_top > 0 ? ground : std::min(ground, ground + shift);
+        CHECK(c.length_m == Approx(top - (ground - (rows - 0.5) * dp + shift - 0.5 * dp)).epsilon(1e-12));
+      }
+    }
+  }
 }

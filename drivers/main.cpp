@@ -80,7 +80,8 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
                          " outside the SPH zone r < " + fmt("%g", cfg.fem.zone_r_max) +
                          " m, z in [" + fmt("%g", cfg.fem.zone_z_min) + ", " + fmt("%g", cfg.fem.zone_z_max) + "] m; " +
                          std::to_string(sim.tie_particle_count()) + " tie particles on " +
-                         std::to_string(sim.tie_edge_count()) + " interface edges\n"
+                         std::to_string(sim.tie_edge_count()) + " interface edges" +
+                         (cfg.fem.subcycle ? "; substeps of their own inside the particles' step" : "") + "\n"
                    : std::string())
      << "materials:\n";
   // Each material's own stable step h / c_p (at rest) against the run's, and its particles:

@@ -50,6 +50,12 @@ struct CraterSite {
 
 namespace detail {
 
+// The band of height z among bands of one spacing dp below z_ref, `above` of them above it
+// (MaterialBands): negative above the highest band.
+KOKKOS_INLINE_FUNCTION int band_of(double z, double z_ref, double dp, int above) {
+  return static_cast<int>(math::floor((z_ref - z) / dp)) + above;
+}
+
 // Particles of `material` (any, when -1) counted within the grid's cut-off of particle i.
 struct CountNear {
   CellGrid grid;
@@ -186,7 +192,7 @@ class ParticleSurvey {
     const std::vector<double> sums = fixed_order_sums(
         "tamp::survey::bands", n_, nb + 1, KOKKOS_LAMBDA(int i, double* s) {
           if (mat(i) != material) return;
-          const int b0 = static_cast<int>(math::floor((z_ref - x(i, 1)) / dp)) + above;
+          const int b0 = detail::band_of(x(i, 1), z_ref, dp, above);
           const int b = b0 < 0 ? 0 : (b0 < nb - 1 ? b0 : nb - 1);  // round-off at the ends
           s[0] += m(i);
           s[1 + b] += m(i) / rho(i);
@@ -202,7 +208,7 @@ class ParticleSurvey {
     Kokkos::parallel_for(
         "tamp::survey::band_wall", Kokkos::RangePolicy<ExecSpace>(0, n_), KOKKOS_LAMBDA(int i) {
           if (mat(i) == material || count(i) < 3) return;
-          const int b = static_cast<int>(math::floor((z_ref - x(i, 1)) / dp)) + above;
+          const int b = detail::band_of(x(i, 1), z_ref, dp, above);
           if (b >= 0 && b < nb) Kokkos::atomic_fetch_min(&wall(b), x(i, 0));
         });
     out.wall_r_m = to_host(wall);

@@ -223,7 +223,7 @@ void Simulation::compute_acceleration() {
                          TieTraction(P, neighbours_, tie_, sph_.h));
     fem::FemMesh& mesh = fem_->mesh();
     Kokkos::deep_copy(mesh.f_tie, 0.0);
-    Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.count),
+    Kokkos::parallel_for("tamp::tie::to_nodes", Kokkos::RangePolicy<ExecSpace>(0, tie_.node_count),
                          TieForceToNodes(tie_, mesh));
   }
   {

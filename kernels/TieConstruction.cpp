@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -149,6 +150,25 @@ TieParticles build_tie_particles(const fem::FemModel& fem, const std::vector<int
   tie.parent = upload2("tamp::tie::parent", xi, eta);
   tie.follow = upload2("tamp::tie::follow", fxi, feta);
   tie.force = ViewN<double, 2>("tamp::tie::force", n);
+  {  // the hand-over by node, in the order of the tie index (TieForceToNodes)
+    std::map<int, std::vector<std::pair<int, double>>> by_node;
+    for (int k = 0; k < n; ++k) {
+      by_node[ea[k]].emplace_back(k, 1.0 - es[k]);
+      by_node[eb[k]].emplace_back(k, es[k]);
+    }
+    std::vector<int> node_id, node_start{0}, node_tie;
+    std::vector<double> node_share;
+    for (const auto& [node, terms] : by_node) {
+      node_id.push_back(node);
+      for (const auto& [k, w] : terms) { node_tie.push_back(k); node_share.push_back(w); }
+      node_start.push_back(static_cast<int>(node_tie.size()));
+    }
+    tie.node_count = static_cast<int>(node_id.size());
+    tie.node_id = upload("tamp::tie::node_id", node_id);
+    tie.node_start = upload("tamp::tie::node_start", node_start);
+    tie.node_tie = upload("tamp::tie::node_tie", node_tie);
+    tie.node_share = upload("tamp::tie::node_share", node_share);
+  }
   if (interface_edges) *interface_edges = static_cast<int>(iface.size());
   return tie;
 }

@@ -29,18 +29,17 @@ struct TieParticles {
   ViewN<double, 2> parent;       // (xi, eta) in [-1, 1]^2
   ViewN<double, 2> follow;       // (xi, eta) whose motion it takes: its own, or (first row)
                                  // its projection on the interface edge
-  View1<int> edge_a, edge_b;     // the interface edge it hands its force to
-  View1<double> edge_s;          // share of its force for node b (1 - edge_s for node a)
   View1<double> planar_mass;     // rho0 times its share of the element's (r, z) area, kg/m
   ViewN<double, 2> normal;       // first row: outward normal of the FEM at its interface edge
   View1<double> depth;           // first row: reference distance to the interface edge, m
   View1<double> face_area;       // first row: ring area of its interface segment, m2; else 0
   ViewN<double, 2> force;        // interface force handed to the FEM, N (per ring)
   View1<int> material;           // index in the SPH material table (its element's material)
-  // The same hand-over seen from the nodes, for a sum in a fixed order (tie index, node a
-  // before b): node_id(q) receives node_share(e) force(node_tie(e)) for e in
-  // [node_start(q), node_start(q+1)). Atomic adds made a node's sum depend on the threads'
-  // order once a node had more than two terms (5 mm particles on 10 mm elements).
+  // Where the force goes, seen from the nodes of the interface edges, for a sum in a fixed
+  // order (tie index, then the edge's node a before b): node_id(q) receives node_share(e)
+  // force(node_tie(e)) for e in [node_start(q), node_start(q+1)). Atomic adds per tie
+  // particle made a node's sum depend on the threads' order once it had more than two terms
+  // (5 mm particles on 10 mm elements).
   int node_count = 0;
   View1<int> node_id, node_start, node_tie;
   View1<double> node_share;

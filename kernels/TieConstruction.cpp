@@ -140,9 +140,6 @@ TieParticles build_tie_particles(const fem::FemModel& fem, const std::vector<int
   tie.count = n;
   tie.material = upload("tamp::tie::material", tmat);
   tie.element = upload("tamp::tie::element", elem);
-  tie.edge_a = upload("tamp::tie::edge_a", ea);
-  tie.edge_b = upload("tamp::tie::edge_b", eb);
-  tie.edge_s = upload("tamp::tie::edge_s", es);
   tie.depth = upload("tamp::tie::depth", depth);
   tie.face_area = upload("tamp::tie::face_area", face);
   tie.planar_mass = upload("tamp::tie::planar_mass", pmass);
@@ -150,7 +147,7 @@ TieParticles build_tie_particles(const fem::FemModel& fem, const std::vector<int
   tie.parent = upload2("tamp::tie::parent", xi, eta);
   tie.follow = upload2("tamp::tie::follow", fxi, feta);
   tie.force = ViewN<double, 2>("tamp::tie::force", n);
-  {  // the hand-over by node, in the order of the tie index (TieForceToNodes)
+  {  // the hand-over to the edge nodes (ea, eb, share es for eb), by node in tie order
     std::map<int, std::vector<std::pair<int, double>>> by_node;
     for (int k = 0; k < n; ++k) {
       by_node[ea[k]].emplace_back(k, 1.0 - es[k]);

@@ -215,6 +215,7 @@ void Simulation::compute_acceleration() {
     f.a_art = a_art_;
     f.fixed_walls = fixed_walls_ ? 1 : 0;
     f.first_image = P.n_real + P.n_tie;
+    if (P.n_tie > 0) f.first_tie = P.n_real;
     Kokkos::parallel_for("tamp::sph::acceleration", real_particles(), f);
   }
   if (fem_ && tie_.count > 0) {

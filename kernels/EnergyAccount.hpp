@@ -8,7 +8,8 @@
 //   [2] fixed-wall friction         sum m a_friction . u
 //   [3] rigid-body contact          sum F . (u - U)        (minus the rate of contact energy)
 //   [4] artificial stress           sum m a_art . u        (a numerical force, no stored energy)
-//   [5 + k] artificial-viscosity heating of material k, sum m du_visc (>= 0)
+//   [5 + k] artificial-viscosity heating of material k, sum m du_visc (>= 0 but for the
+//           pairs with tie particles: there the work of the unreciprocated viscous force)
 // The velocity u is that of the middle of a half kick of the leapfrog, u = v + shift a
 // (shift = +dt/4 before the first kick of a step, -dt/4 after the second; U likewise for
 // the body): a half kick changes the kinetic energy by exactly the impulse times u, so the

@@ -226,6 +226,8 @@ struct Acceleration {
   Kokkos::View<const double*, MemSpace> wave_speeds;
   int fixed_walls = 0;  // 1: the model has a fixed wall; sum its ghosts' pair forces apart
   int first_image = kNoImages;  // index of the first mirror image (n_real + n_tie); none by default
+  // index of the first tie particle (n_real) when the model has tie particles; none by default
+  int first_tie = kNoImages;
 
   // Built by name; the parts written apart (a_wall, a_art) and fixed_walls are set by the
   // caller by name.
@@ -302,7 +304,11 @@ struct Acceleration {
         const double Pi = ring * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
         Trr -= Pi;
         Tzz -= Pi;
-        heat += 0.5 * Pi * (dvr * gr + dvz * gz);
+        // Heat: each particle of a pair books half of the pair's viscous dissipation. A tie
+        // particle is not integrated and the elements do not receive the viscous force
+        // (the tie hands them the stress traction), so the force on a is not reciprocated:
+        // a books the whole work it does on a, Pi (v_a . grad W), which can be of either sign.
+        heat += b >= first_tie && b < first_image ? Pi * (vra * gr + vza * gz) : 0.5 * Pi * (dvr * gr + dvz * gz);
       }
       ar += Trr * gr + Trz * gz;
       az += Trz * gr + Tzz * gz;

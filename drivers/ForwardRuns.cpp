@@ -43,6 +43,30 @@ std::string deck_key(const std::string& text) {
   return buf;
 }
 
+std::string engine_fingerprint(const std::vector<std::string>& executables) {
+  unsigned long long h = 1469598103934665603ull;  // FNV-1a 64, as deck_key, over every file in turn
+  auto add = [&h](const char* p, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      h ^= static_cast<unsigned char>(p[i]);
+      h *= 1099511628211ull;
+    }
+  };
+  std::vector<char> buf(1 << 16);
+  for (const std::string& path : executables) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+      log::warn("run cache: cannot read " + path + " to tell engine builds apart; its name stands for it");
+      add(path.data(), path.size());
+      continue;
+    }
+    while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0)
+      add(buf.data(), static_cast<size_t>(in.gcount()));
+  }
+  char out[17];
+  std::snprintf(out, sizeof out, "%016llx", h);
+  return out;
+}
+
 namespace {
 
 // A forward result as JSON for the ranks' exchange (doubles to full precision; NaN as null).
@@ -115,6 +139,12 @@ ForwardRuns::ForwardRuns(ForwardRunOptions opt) : opt_(std::move(opt)) {
     throw std::invalid_argument("forward runs: jobs > 1 needs the path of the tamp executable");
   if (!opt_.scratch.empty()) fs::create_directories(opt_.scratch);
   if (!opt_.cache.empty()) fs::create_directories(opt_.cache);
+  engine_ = opt_.engine;
+  if (engine_.empty() && !opt_.cache.empty()) {
+    std::vector<std::string> exes{"/proc/self/exe"};
+    if (opt_.jobs > 1) exes.push_back(opt_.tamp_binary);
+    engine_ = engine_fingerprint(exes);
+  }
 }
 
 bool ForwardRuns::lookup(const std::string& key, const std::string& deck, ForwardResult& r) const {
@@ -278,7 +308,7 @@ std::vector<ForwardResult> ForwardRuns::run(const std::vector<Config>& batch) {
   const long hits_before = hits_;
   for (size_t i = 0; i < batch.size(); ++i) {
     // the key: the effective deck and the engine that runs it
-    decks[i] = "# forward run of tamp " TAMP_VERSION "\n" + to_toml(batch[i]);
+    decks[i] = "# forward run of tamp " TAMP_VERSION ", engine " + engine_ + "\n" + to_toml(batch[i]);
     keys[i] = deck_key(decks[i]);
     for (size_t j = 0; j < i && same_as[i] < 0; ++j)
       if (decks[j] == decks[i]) same_as[i] = same_as[j] >= 0 ? same_as[j] : static_cast<long>(j);

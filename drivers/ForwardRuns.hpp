@@ -17,7 +17,7 @@
 //
 // The run cache: every finished run (or failure) is kept under `cache/<key>/` with the
 // deck it ran, the key a hash of that deck's text (the effective deck, after every --set
-// and effect). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
+// and effect) and of the engine build (engine_fingerprint). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
 // and started again with --resume skips what it had finished.
 #pragma once
 #include <functional>
@@ -44,6 +44,8 @@ struct ForwardRunOptions {
   std::string cache;          // run cache folder ("" = none)
   std::string tamp_binary;    // the `tamp` executable for the children (jobs > 1)
   double timeout_s = 0;       // a child running longer is stopped and recorded as failed (0 = none)
+  std::string engine;         // the engine in the cache key ("" = engine_fingerprint of the executables
+                              // that run the runs: this process's, and tamp_binary's when jobs > 1)
 };
 
 class ForwardRuns {
@@ -74,6 +76,7 @@ class ForwardRuns {
   void store(const std::string& key, const std::string& deck, const std::string& run_dir, const ForwardResult& r);
   bool lookup(const std::string& key, const std::string& deck, ForwardResult& r) const;
   ForwardRunOptions opt_;
+  std::string engine_;              // the engine in the cache key
   long runs_ = 0, hits_ = 0, failures_ = 0, serial_ = 0;
   std::map<long, long> batch_sizes_;
   struct Lanes;                     // the fits of side_by_side (ForwardRuns.cpp)
@@ -83,5 +86,12 @@ class ForwardRuns {
 // The cache key of a deck's text: FNV-1a 64-bit, as 16 hex digits (the stored deck is
 // compared in full, so a collision is never taken for a hit).
 std::string deck_key(const std::string& deck_text);
+
+// The engine build as 16 hex digits: FNV-1a 64-bit of the bytes of the executables (in
+// order; "/proc/self/exe" for this process). Part of the cache key, so that a --resume after
+// a rebuild never takes the old engine's runs for the new one's (the project version,
+// TAMP_VERSION, does not change when the engine does). An unreadable file enters by its
+// name, with a warning.
+std::string engine_fingerprint(const std::vector<std::string>& executables);
 
 }  // namespace tamp

@@ -400,6 +400,20 @@ TEST_CASE("Loop: forward runs side by side give the answers of one at a time, th
   CHECK(again.runs() == 0);
   CHECK(again.cache_hits() == 4);
   CHECK(rc[2].outputs.summary.at("uplift_m") == rb[2].outputs.summary.at("uplift_m"));
+  // ... but not the runs of another engine build: the cache key holds the engine (by
+  // default a hash of the executables; here named, as a rebuilt engine would hash)
+  tamp::ForwardRunOptions rebuilt = two;
+  rebuilt.engine = "another-build";
+  tamp::ForwardRuns other(rebuilt);
+  (void)other.run(batch);
+  CHECK(other.runs() == 3);
+  CHECK(other.cache_hits() == b.cache_hits());  // as on an empty cache (the repeated deck only)
+  // the default engine is this process's executable and the children's: 16 hex digits that
+  // change with the files' bytes
+  const std::string e_self = tamp::engine_fingerprint({"/proc/self/exe"});
+  CHECK(e_self.size() == 16);
+  CHECK(e_self == tamp::engine_fingerprint({"/proc/self/exe"}));
+  CHECK(e_self != tamp::engine_fingerprint({"/proc/self/exe", TAMP_BINARY}));
   // a failed run (here a time-out) is a recorded failed point, and stays one from the cache
   tamp::ForwardRunOptions slow = two;
   slow.cache = d + "/cache-slow";

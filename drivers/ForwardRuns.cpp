@@ -32,39 +32,44 @@ extern char** environ;
 namespace tamp {
 namespace fs = std::filesystem;
 
-std::string deck_key(const std::string& text) {
-  unsigned long long h = 1469598103934665603ull;  // FNV-1a 64
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", h);
-  return buf;
-}
-
-std::string engine_fingerprint(const std::vector<std::string>& executables) {
-  unsigned long long h = 1469598103934665603ull;  // FNV-1a 64, as deck_key, over every file in turn
-  auto add = [&h](const char* p, size_t n) {
+namespace {
+// FNV-1a 64-bit: h from the offset basis 1469598103934665603, bytes added in turn.
+struct Fnv1a {
+  unsigned long long h = 1469598103934665603ull;
+  void add(const char* p, size_t n) {
     for (size_t i = 0; i < n; ++i) {
       h ^= static_cast<unsigned char>(p[i]);
       h *= 1099511628211ull;
     }
-  };
+  }
+  std::string hex() const {
+    char out[17];
+    std::snprintf(out, sizeof out, "%016llx", h);
+    return out;
+  }
+};
+}  // namespace
+
+std::string deck_key(const std::string& text) {
+  Fnv1a f;
+  f.add(text.data(), text.size());
+  return f.hex();
+}
+
+std::string engine_fingerprint(const std::vector<std::string>& executables) {
+  Fnv1a f;  // over every file in turn
   std::vector<char> buf(1 << 16);
   for (const std::string& path : executables) {
     std::ifstream in(path, std::ios::binary);
     if (!in) {
       log::warn("run cache: cannot read " + path + " to tell engine builds apart; its name stands for it");
-      add(path.data(), path.size());
+      f.add(path.data(), path.size());
       continue;
     }
     while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0)
-      add(buf.data(), static_cast<size_t>(in.gcount()));
+      f.add(buf.data(), static_cast<size_t>(in.gcount()));
   }
-  char out[17];
-  std::snprintf(out, sizeof out, "%016llx", h);
-  return out;
+  return f.hex();
 }
 
 namespace {

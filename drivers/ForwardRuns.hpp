@@ -17,8 +17,9 @@
 //
 // The run cache: every finished run (or failure) is kept under `cache/<key>/` with the
 // deck it ran, the key a hash of that deck's text (the effective deck, after every --set
-// and effect) and of the engine build (engine_fingerprint). A run whose deck is there is not redone: a diagnosis interrupted with Ctrl-C
-// and started again with --resume skips what it had finished.
+// and effect) and of the engine build (engine_fingerprint). A run whose deck is there is
+// not redone: a diagnosis interrupted with Ctrl-C and started again with --resume skips
+// what it had finished.
 #pragma once
 #include <functional>
 #include <map>

@@ -860,7 +860,8 @@ toml::table parse_toml(const std::string& text, const std::string& label, const 
 
 // One --set KEY=VALUE applied to the parsed deck (see Deck.hpp). The value is parsed as
 // the right-hand side of a TOML key, so the deck's own types apply; the validator then
-// checks it where it lands.
+// checks it where it lands. KEY= with nothing after '=' removes the key (a model switch
+// by hand: the old model's keys must go, e.g. clay.Su= when clay becomes Cam-Clay).
 void apply_override(toml::table& root, const std::string& setting, const std::string& deck) {
   const auto fail = [&](const std::string& why) {
     throw DeckError(printable(deck) + ": --set '" + printable(setting) + "': " + why);
@@ -877,11 +878,13 @@ void apply_override(toml::table& root, const std::string& setting, const std::st
     if (dot == std::string::npos) break;
     from = dot + 1;
   }
+  const bool remove = text.empty();
   const std::string value_error =
       "the value '" + printable(text) + "' is not a TOML value; allowed: a number (0.005), true or false, "
-      "a quoted string (\"fill\") or an array ([0.3, 0.5])";
-  const toml::table value_doc = parse_toml("value = " + text, "--set", [&](auto, auto, const auto&) { fail(value_error); });
-  if (value_doc.size() != 1) fail(value_error);  // e.g. "1\nother = 2"
+      "a quoted string (\"fill\") or an array ([0.3, 0.5]), or nothing to remove the key";
+  const toml::table value_doc =
+      remove ? toml::table{} : parse_toml("value = " + text, "--set", [&](auto, auto, const auto&) { fail(value_error); });
+  if (!remove && value_doc.size() != 1) fail(value_error);  // e.g. "1\nother = 2"
   const toml::node* value = value_doc.get("value");  // a non-finite number is the validator's to refuse
 
   // <material name>.<key>: the [[materials]] entry of that name.
@@ -894,9 +897,11 @@ void apply_override(toml::table& root, const std::string& setting, const std::st
           target = t;
           first = 1;
         }
+  const auto absent = [&] { fail("the deck has no '" + printable(key) + "' to remove"); };
   for (std::size_t i = first; i + 1 < path.size(); ++i) {
     toml::node* next = target->get(path[i]);
     if (!next) {
+      if (remove) absent();
       target->insert(path[i], toml::table{});
       next = target->get(path[i]);
     }
@@ -904,6 +909,11 @@ void apply_override(toml::table& root, const std::string& setting, const std::st
       fail("'" + printable(path[i]) + "' is a " + type_name(*next) + " in the deck, not a table that holds '" +
            printable(path[i + 1]) + "'");
     target = next->as_table();
+  }
+  if (remove) {
+    if (!target->contains(path.back())) absent();
+    target->erase(path.back());
+    return;
   }
   target->insert_or_assign(path.back(), *value);
 }

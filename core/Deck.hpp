@@ -34,7 +34,8 @@ struct DeckError : std::runtime_error {
 // TOML before validation, so that an overridden value is checked like a written one:
 //   KEY   a dotted path of tables and a key: sph.spacing, fem.enabled, schedule.relax_time,
 //         boundaries.bottom.type, gravity; or <material name>.<key>: clay.Su, aggregate.phi_deg
-//   VALUE a TOML value: 0.005, true, "fill", [0.3, 0.5]
+//   VALUE a TOML value: 0.005, true, "fill", [0.3, 0.5]; nothing (KEY=) removes the key
+//         (refused when the deck has no such key)
 // A KEY=VALUE that is not of this form, a path through a value that is not a table, or a
 // value the deck does not allow there throws DeckError naming the deck, the setting and
 // what is allowed.

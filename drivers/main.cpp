@@ -423,7 +423,7 @@ int main(int argc, char** argv) {
                   "drop sequence DIR/checkpoints/<stage>.h5 (any stage) or DIR/checkpoints/interrupted.h5");
   run->add_option("--set", sets,
                   "Override a deck value: KEY=VALUE, e.g. sph.spacing=0.005, fem.enabled=true, clay.Su=12000 "
-                  "(a dotted path of tables, or <material>.<key>; the value in TOML)");
+                  "(a dotted path of tables, or <material>.<key>; the value in TOML; KEY= removes the key)");
   run->add_option("--stop-after-stage", stop_after,
                   "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
   bool profile = false;
@@ -433,7 +433,7 @@ int main(int argc, char** argv) {
   run->add_flag("--profile", profile, "Time each part of the step (fences between parts) and write profile.csv");
   auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
   check->add_option("deck", deck, "Input deck (TOML)")->required();
-  check->add_option("--set", sets, "Override a deck value, as for run: KEY=VALUE, e.g. sph.spacing=0.005");
+  check->add_option("--set", sets, "Override a deck value, as for run: KEY=VALUE, e.g. sph.spacing=0.005 (KEY= removes the key)");
   std::string data_path, run_dir, params, effect = "none", material = "clay";
   double noise = 0.02;
   unsigned seed = 1;

@@ -790,4 +790,16 @@ TEST_CASE("Deck: --set overrides land where the deck would put them and are vali
   CHECK(error_of({"sph.kernel_correction=3"}).find("has the wrong type") != std::string::npos);
   CHECK(error_of({"clay.bogus=1"}).find("materials[1].bogus = 1 is not a known key") != std::string::npos);
   CHECK(error_of({"nosuch.key=1"}).find("is not a known key") != std::string::npos);
+
+  // KEY= removes the key: a material's model switched by hand, its old keys removed and the
+  // new model's added; removing a key the new model needs, or one the deck lacks, is refused.
+  CHECK(error_of({"clay.model=\"modified-cam-clay\""}).find("].Su = 20000.0 is not used by model") != std::string::npos);
+  const Config mcc = parse_deck(kValidDeck, "valid.toml",
+                                {"clay.model=\"modified-cam-clay\"", "clay.Su=", "clay.lambda=0.2", "clay.kappa=0.04",
+                                 "clay.M=0.9", "clay.v0=2.2", "clay.p_c0=45000"});
+  CHECK(mcc.materials[1].model == "modified-cam-clay");
+  CHECK(error_of({"clay.Su="}).find("Su") != std::string::npos);  // Tresca needs it
+  CHECK(error_of({"clay.Su="}).find("(with --set clay.Su=)") != std::string::npos);
+  CHECK(error_of({"clay.bogus="}) == "deck.toml: --set 'clay.bogus=': the deck has no 'clay.bogus' to remove");
+  CHECK(error_of({"nosuch.key="}) == "deck.toml: --set 'nosuch.key=': the deck has no 'nosuch.key' to remove");
 }

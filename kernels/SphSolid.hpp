@@ -144,7 +144,6 @@ struct StrainRateAndStress {
     const double s_old[4] = {s[0], s[1], s[2], s[3]};
     double eps_p = plastic_strain(a), eps_v = compaction(a);
     update_stress(m, s, deps, w_rz_dt, eps_p, eps_v, dt);
-    compaction(a) = eps_v;
 
     // Continuity, bounded to [0.7, 1.5] rho_0: at a free surface (crater rims, splashed
     // particles) the truncated kernel gives a spurious div v, and the hypoelastic stress
@@ -160,8 +159,15 @@ struct StrainRateAndStress {
     // neighbours 2.5-3.5 spacings away through the kernel's tail, held the pounder up (a
     // sparse skeleton). Its elastic energy is released into the internal energy's
     // dissipated part: the internal energy (the work done) is unchanged.
-    if (m.separation_density > 0.0 && rho_new < m.separation_density)
+    // A grain without contacts keeps no packing history but its density: its compaction
+    // (log volumetric strain from the placed density, compression positive) is set from
+    // it, so that a charge loosened by flowing can be compacted again (effect (a); the
+    // hardening variable of Cam-Clay likewise) instead of having spent its air voids once.
+    if (m.separation_density > 0.0 && rho_new < m.separation_density) {
       for (int c = 0; c < 4; ++c) s[c] = 0.0;
+      eps_v = math::log(rho_new / rho0);
+    }
+    compaction(a) = eps_v;
     // Stress power per unit mass, trapezoidal in the stress: du = sigma : deps / rho.
     double work = 0;
     for (int c = 0; c < 3; ++c) work += 0.5 * (s[c] + s_old[c]) * deps[c];

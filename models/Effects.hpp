@@ -45,7 +45,8 @@ KOKKOS_INLINE_FUNCTION double shear_strain_rate(const double deps[4], double dt)
 KOKKOS_INLINE_FUNCTION double compaction_return(const MaterialParams& m, double sigma[4], double& eps_v) {
   if (m.crush_pressure <= 0 || eps_v >= m.air_voids) return 0.0;
   const double p = -(sigma[RR] + sigma[ZZ] + sigma[TT]) / 3.0;
-  const double pc = m.crush_pressure + m.crush_hardening * eps_v;
+  // (eps_v < 0: a grain loosened below its placed density, kernels/SphSolid.hpp)
+  const double pc = math::max(0.0, m.crush_pressure + m.crush_hardening * eps_v);
   if (p <= pc) return 0.0;
   double de = (p - pc) / (m.bulk_modulus + m.crush_hardening);
   if (de > m.air_voids - eps_v) de = m.air_voids - eps_v;

@@ -400,6 +400,80 @@ TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stre
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
+TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air voids back and compacts again "
+          "under pressure", "[aggregate][effects]") {
+  // The compaction cap (effect (a), docs/effects.md) on a separating material, in the
+  // uniaxial strain of the test above: p_c0 = 20 kPa, H = 0, n_a = 0.05, separation at
+  // rho_c = 0.9 rho_0. Mean pressure p = -(s_rr + s_zz + s_tt) / 3; continuity gives
+  // rho = rho_0 / lambda. Beyond the air voids the cap is spent and p = K (ln(rho/rho_0) - n_a)
+  // (log volumetric strain = compaction + p / K). A grain that separates keeps no packing
+  // history but its density (compaction = ln(rho / rho_0) < 0), so compressed back it
+  // compacts on the cap again, and its densest packing is rho_0 e^n_a whatever its history.
+  //   1. compressed to lambda = 0.93: p = K (ln(1/0.93) - n_a), about 207 kPa;
+  //   2. stretched to lambda = 1.25: separated, p = 0;
+  //   3. compressed back to lambda = 0.96: reconnected at lambda_c = 1/0.9 with compaction
+  //      ln 0.9 = -0.105, so its air voids are 0.155 again, more than the log strain 0.146
+  //      since: p = p_c0 on the cap (if the voids spent in 1. stayed spent, the grain would
+  //      load elastically from lambda_c: p = K ln(lambda_c / 0.96) = 1.34 MPa, 67 p_c0);
+  //   4. compressed to lambda = 0.90: the voids spent again, p = K (ln(1/0.9) - n_a).
+  // Tolerances: 1 % of p where p is elastic beyond the cap (first order in the step's strain
+  // increment, as above), 2 % of p_c0 on the cap, 1e-9 Pa separated; interior rows only.
+  // The shear strength is made unreachable (c = 1 GPa) so that only the cap acts.
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const double dp = 0.01, R = 0.05, L = 0.12, rate = 1.0;  // m, m, m, 1/s
+  const double pc0 = 20e3, na = 0.05;                        // Pa, -
+  Config cfg = column_config(R, L, dp);
+  cfg.sph.kernel_correction = true;
+  MaterialSpec agg = tamp::lab::aggregate();
+  agg.name = "clay";  // the column's block material
+  agg.cohesion = 1e9;
+  agg.separation_density = 0.9 * agg.density;
+  agg.crush_pressure = pc0;
+  agg.air_voids = na;
+  cfg.materials = {agg};
+  Simulation sim(cfg);
+  const double K = sim.materials()[0].bulk_modulus, rho0 = agg.density;
+  const int rows = static_cast<int>(std::lround(L / dp));
+  auto impose = [&](double lambda, double sign) {
+    for (int j = 0; j < rows; ++j) {
+      const double z0 = (j + 0.5) * dp, z = lambda * z0;
+      sim.prescribe_velocity({0, 1, z - 0.3 * dp, z + 0.3 * dp}, 0.0, sign * rate * z0);
+    }
+  };
+  // mean pressure and density of the interior particles (initial rows 3-6)
+  auto mean_p = [&](double lambda) {
+    const tamp::ParticleSnapshot s = sim.snapshot();
+    double p = 0, rho = 0;
+    int n = 0;
+    for (size_t i = 0; i < s.r.size(); ++i) {
+      const double z0 = s.z[i] / lambda;
+      if (z0 < 3 * dp || z0 > 7 * dp || s.r[i] > R - 2 * dp) continue;
+      p += -(s.s_rr[i] + s.s_zz[i] + s.s_tt[i]) / 3.0;
+      rho += s.density[i];
+      ++n;
+    }
+    REQUIRE(n > 0);
+    p /= n;
+    rho /= n;
+    std::printf("[recompaction] lambda %.3f: rho/rho_0 %.4f, p %.1f Pa\n", lambda, rho / rho0, p);
+    CHECK(rho / rho0 == Approx(1.0 / lambda).epsilon(2e-3));
+    return p;
+  };
+  impose(1.0, -1.0);
+  sim.advance_to(0.07);  // lambda 0.93
+  const double p1 = K * (std::log(1.0 / 0.93) - na);
+  CHECK(mean_p(0.93) == Approx(p1).epsilon(0.01));
+  impose(0.93, +1.0);
+  sim.advance_to(0.07 + 0.32);  // lambda 1.25
+  CHECK(std::fabs(mean_p(1.25)) < 1e-9);
+  impose(1.25, -1.0);
+  sim.advance_to(0.07 + 0.32 + 0.29);  // lambda 0.96
+  CHECK(mean_p(0.96) == Approx(pc0).margin(0.02 * pc0));
+  sim.advance_to(0.07 + 0.32 + 0.35);  // lambda 0.90
+  CHECK(mean_p(0.90) == Approx(K * (std::log(1.0 / 0.90) - na)).epsilon(0.01));
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
 TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and comes to rest, 3 deg steeper it slumps",
           "[aggregate]") {
   // A cohesionless slope is in limit equilibrium at beta = phi (infinite-slope analysis;

@@ -685,8 +685,10 @@ const std::vector<EffectCandidate>& effect_catalogue() {
       // simplex started at one end does not follow)
       {"compaction", {{"air_voids", 0.15}, {"crush_hardening", 0.0}}, {{"crush_pressure", 60e3}},
        {400e3, 160e3, 60e3, 25e3, 10e3}, "", "", 0},
-      {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.06, 0.15, 0.35, 0.8}, "", "", 0},
-      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.85, 0.7, 0.5, 0.3}, "", "", 0},
+      {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.06, 0.15, 0.35, 0.8}, "", "", 0,
+       true},
+      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.85, 0.7, 0.5, 0.3}, "", "", 0,
+       true},
   };
   return c;
 }
@@ -834,12 +836,7 @@ FitResult scan_then_polish(Config start, const ObservationSet& data, const std::
 }  // namespace
 
 namespace {
-// One candidate of a diagnosis step: an effect of the catalogue on one target material.
-struct StepCandidate {
-  const EffectCandidate* effect;
-  std::string material;
-  std::string label;  // "compaction", or "compaction (aggregate)" when the data names several targets
-};
+using StepCandidate = DiagnosisCandidate;
 
 // The grid of the scan of the first baseline parameter at each profile value of an effect
 // (factors of its current value, 10-15 % apart, 0.5-1.5): wide enough for the strength that an
@@ -951,6 +948,38 @@ void check_target_materials(const ObservationSet& data, const Config& scenario) 
   check(data.model_switches, "model_switches", model_switch_catalogue(), "model switch");
 }
 
+std::vector<DiagnosisCandidate> diagnosis_candidates(const ObservationSet& data, const Config& base) {
+  std::vector<DiagnosisCandidate> out;
+  auto label = [&](const EffectCandidate& e, const std::string& m) {
+    return data.target_materials.size() > 1 ? e.name + " (" + m + ")" : e.name;
+  };
+  for (const auto& m : data.target_materials) {
+    double su = 0;  // the material's strength c (Su of a Tresca clay; 0 for a cohesionless charge)
+    for (const auto& mm : base.materials)
+      if (mm.name == m) su = mm.cohesion;
+    for (const auto& e : effect_catalogue()) {
+      if (data.has_effects && std::find(data.effects.begin(), data.effects.end(), e.name) == data.effects.end())
+        continue;
+      if (e.scales_strength && !(su > 0)) {
+        log::info("diagnose: the effect '" + e.name + "' is not tried on '" + m +
+                  "' (it scales the strength c, which is 0 there)");
+        continue;
+      }
+      out.push_back({&e, m, label(e, m)});
+    }
+    for (const auto& e : model_switch_catalogue()) {
+      if (std::find(data.model_switches.begin(), data.model_switches.end(), e.name) == data.model_switches.end())
+        continue;
+      if (su > 0)
+        out.push_back({&e, m, label(e, m)});
+      else
+        log::info("diagnose: the model switch '" + e.name + "' is not tried on '" + m +
+                  "' (its Su is 0: no strength for " + e.strength + " to start from)");
+    }
+  }
+  return out;
+}
+
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt0) {
   if (opt0.max_steps < 1)
     throw std::invalid_argument("diagnose: max_steps " + std::to_string(opt0.max_steps) + "; allowed: 1 or more");
@@ -975,29 +1004,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   if (opt.baseline_params.empty()) opt.baseline_params = {data.target_material + ".Su"};
   const Config base = load_deck(data.scenario);
   check_target_materials(data, base);
-  // every effect of the catalogue on every target material, and the model switches the data
-  // file asks for on every target material that has an undrained strength to start from
-  std::vector<StepCandidate> remaining;
-  auto label = [&](const EffectCandidate& e, const std::string& m) {
-    return data.target_materials.size() > 1 ? e.name + " (" + m + ")" : e.name;
-  };
-  for (const auto& m : data.target_materials) {
-    for (const auto& e : effect_catalogue())
-      if (!data.has_effects || std::find(data.effects.begin(), data.effects.end(), e.name) != data.effects.end())
-        remaining.push_back({&e, m, label(e, m)});
-    for (const auto& e : model_switch_catalogue()) {
-      if (std::find(data.model_switches.begin(), data.model_switches.end(), e.name) == data.model_switches.end())
-        continue;
-      double su = 0;
-      for (const auto& mm : base.materials)
-        if (mm.name == m) su = mm.cohesion;
-      if (su > 0)
-        remaining.push_back({&e, m, label(e, m)});
-      else
-        log::info("diagnose: the model switch '" + e.name + "' is not tried on '" + m +
-                  "' (its Su is 0: no strength for " + e.strength + " to start from)");
-    }
-  }
+  std::vector<StepCandidate> remaining = diagnosis_candidates(data, base);
   // The parameter each profile refits with the effect: the baseline's strength, or after a
   // model switch of its material the new model's strength key.
   std::string refit_param = opt.baseline_params[0];

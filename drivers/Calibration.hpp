@@ -117,6 +117,9 @@ struct EffectCandidate {
   std::string model;
   std::string strength;
   double strength_per_su = 0;
+  // The effect scales the material's strength c (rate, remoulding: c = c0 F): on a material
+  // with c0 = 0 (a cohesionless charge) it has nothing to act on and is not a candidate.
+  bool scales_strength = false;
 };
 const std::vector<EffectCandidate>& effect_catalogue();
 // The constitutive-model switches a data file may ask for (`model_switches`).
@@ -148,6 +151,18 @@ struct DiagnoseOptions {
 // Throws DeckError (file, key, value, the materials allowed) unless every target material
 // of the data file is a material of the scenario.
 void check_target_materials(const ObservationSet& data, const Config& scenario);
+
+// One candidate of a diagnosis step: an effect (or model switch) on one target material.
+struct DiagnosisCandidate {
+  const EffectCandidate* effect;
+  std::string material;
+  std::string label;  // "compaction", or "compaction (aggregate)" when the data names several targets
+};
+// The candidates of a diagnosis: every effect of the catalogue (or of the data file's
+// `effects`) on every target material, but those that scale a strength the material does not
+// have (c = 0), and the model switches the data file asks for on every target material with
+// an undrained strength to start from; per material in the data file's order, effects first.
+std::vector<DiagnosisCandidate> diagnosis_candidates(const ObservationSet& data, const Config& scenario);
 
 // Calibrates the baseline, then step by step refits with each catalogued effect on each
 // target material on top of the model so far, adds the one that lowers BIC most (by more

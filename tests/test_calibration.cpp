@@ -147,6 +147,21 @@ TEST_CASE("Loop: data files are validated and residuals are normalised by the un
   const ObservationSet lab = load_observations(std::string(TAMP_SOURCE_DIR) + "/data/lab-observations.toml");
   CHECK(lab.observations.size() == 5);
   CHECK(fs::exists(lab.scenario));
+  // The candidates of a diagnosis: on the cohesionless aggregate (c = 0) neither the effects
+  // that scale c (rate, remoulding) nor the switch from Su are tried; on the clay all are.
+  write(d + "/both.toml", "scenario = \"" + tiny + "\"\ntarget_material = [\"clay\", \"aggregate\"]\n"
+                          "model_switches = [\"modified-cam-clay\"]\n"
+                          "[[observations]]\nquantity = \"uplift_m\"\nvalue = 0.01\nsigma = 0.001\n");
+  std::vector<std::string> labels;
+  for (const auto& c : tamp::diagnosis_candidates(load_observations(d + "/both.toml"), load_deck(tiny)))
+    labels.push_back(c.label);
+  CHECK(labels == std::vector<std::string>{"compaction (clay)", "rate (clay)", "remoulding (clay)",
+                                           "modified-cam-clay (clay)", "compaction (aggregate)"});
+  // the lab's: the clay and the aggregate charge (docs/closing-the-loop.md)
+  labels.clear();
+  for (const auto& c : tamp::diagnosis_candidates(lab, load_deck(lab.scenario))) labels.push_back(c.label);
+  CHECK(labels == std::vector<std::string>{"compaction (clay)", "rate (clay)", "remoulding (clay)",
+                                           "modified-cam-clay (clay)", "compaction (aggregate)"});
 }
 
 TEST_CASE("Loop: a model switch sets the new model, its keys and its strength from Su, and its deck round-trips",

@@ -326,6 +326,21 @@ void dump_heap(const Simulation& sim, const char* var) {
   tamp::write_csv(path, {"r", "z", "vr", "vz", "density", "srr", "szz", "stt", "srz", "mass"}, rows);
 }
 
+// The uniaxial strain of the separation tests: every row of the column (row j at height
+// (j + 1/2) dp when unstretched, lambda times that now) moves at rate * its unstretched height.
+void impose_uniaxial_strain(Simulation& sim, int rows, double dp, double rate, double lambda) {
+  for (int j = 0; j < rows; ++j) {
+    const double z0 = (j + 0.5) * dp, z = lambda * z0;
+    sim.prescribe_velocity({0, 1, z - 0.3 * dp, z + 0.3 * dp}, 0.0, rate * z0);
+  }
+}
+
+// Particle i of the stretched column is interior: initial rows 3-6, two spacings off the side.
+bool in_column_interior(const tamp::ParticleSnapshot& s, size_t i, double lambda, double dp, double R) {
+  const double z0 = s.z[i] / lambda;
+  return z0 >= 3 * dp && z0 <= 7 * dp && s.r[i] <= R - 2 * dp;
+}
+
 }  // namespace
 
 TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stress, and take load again once "
@@ -355,12 +370,7 @@ TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stre
   const double M = m.p_wave_modulus(), lam = m.bulk_modulus - 2.0 / 3.0 * m.shear_modulus;
   const int rows = static_cast<int>(std::lround(L / dp));
   // every row moves at rate * its height at lambda = 1 (sign -1: compression)
-  auto impose = [&](double lambda, double sign) {
-    for (int j = 0; j < rows; ++j) {
-      const double z0 = (j + 0.5) * dp, z = lambda * z0;
-      sim.prescribe_velocity({0, 1, z - 0.3 * dp, z + 0.3 * dp}, 0.0, sign * rate * z0);
-    }
-  };
+  auto impose = [&](double lambda, double sign) { impose_uniaxial_strain(sim, rows, dp, sign * rate, lambda); };
   // interior particles (initial rows 3-6): worst relative error of sigma_zz, sigma_rr
   // against the expected values, and the mean density over rho_0
   auto check = [&](double lambda, double lambda_zero, bool separated) {
@@ -368,8 +378,7 @@ TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stre
     double worst = 0, rho = 0;
     int n = 0;
     for (size_t i = 0; i < s.r.size(); ++i) {
-      const double z0 = s.z[i] / lambda;
-      if (z0 < 3 * dp || z0 > 7 * dp || s.r[i] > R - 2 * dp) continue;
+      if (!in_column_interior(s, i, lambda, dp, R)) continue;
       const double e = std::log(lambda / lambda_zero);
       if (separated) {
         worst = std::max({worst, std::fabs(s.s_zz[i]), std::fabs(s.s_rr[i]), std::fabs(s.s_tt[i])});
@@ -434,20 +443,14 @@ TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air vo
   Simulation sim(cfg);
   const double K = sim.materials()[0].bulk_modulus, rho0 = agg.density;
   const int rows = static_cast<int>(std::lround(L / dp));
-  auto impose = [&](double lambda, double sign) {
-    for (int j = 0; j < rows; ++j) {
-      const double z0 = (j + 0.5) * dp, z = lambda * z0;
-      sim.prescribe_velocity({0, 1, z - 0.3 * dp, z + 0.3 * dp}, 0.0, sign * rate * z0);
-    }
-  };
+  auto impose = [&](double lambda, double sign) { impose_uniaxial_strain(sim, rows, dp, sign * rate, lambda); };
   // mean pressure and density of the interior particles (initial rows 3-6)
   auto mean_p = [&](double lambda) {
     const tamp::ParticleSnapshot s = sim.snapshot();
     double p = 0, rho = 0;
     int n = 0;
     for (size_t i = 0; i < s.r.size(); ++i) {
-      const double z0 = s.z[i] / lambda;
-      if (z0 < 3 * dp || z0 > 7 * dp || s.r[i] > R - 2 * dp) continue;
+      if (!in_column_interior(s, i, lambda, dp, R)) continue;
       p += -(s.s_rr[i] + s.s_zz[i] + s.s_tt[i]) / 3.0;
       rho += s.density[i];
       ++n;

@@ -36,6 +36,10 @@ struct ObservationSet {
   std::string file;             // the data file
   std::string scenario;         // path of the scenario deck (resolved against the file's folder)
   std::string scenario_as_written;
+  // Overrides of the scenario deck given on the command line of calibrate / diagnose
+  // (`--set KEY=VALUE`, as for `tamp run`): e.g. a coarser screening deck,
+  // sph.spacing=0.02. Not read from the data file; recorded in diagnosis.json.
+  std::vector<std::string> scenario_overrides;
   std::string target_material = "clay";      // the first of target_materials
   std::vector<std::string> target_materials = {"clay"};
   // Constitutive-model switches the diagnosis tries on the target materials beside the

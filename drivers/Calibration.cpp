@@ -1002,7 +1002,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   ForwardRuns& runner = *opt.fit.runner;
   const auto wall0 = std::chrono::steady_clock::now();
   if (opt.baseline_params.empty()) opt.baseline_params = {data.target_material + ".Su"};
-  const Config base = load_deck(data.scenario);
+  const Config base = load_deck(data.scenario, data.scenario_overrides);
   check_target_materials(data, base);
   std::vector<StepCandidate> remaining = diagnosis_candidates(data, base);
   // The parameter each profile refits with the effect: the baseline's strength, or after a
@@ -1108,6 +1108,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   js["error_after"] = chosen->error;
   js["bic_margin"] = opt.bic_margin;
   js["target_materials"] = data.target_materials;
+  js["scenario_overrides"] = data.scenario_overrides;
   js["effects"] = nlohmann::ordered_json::array();
   for (const auto& e : effect_catalogue())
     if (!data.has_effects || std::find(data.effects.begin(), data.effects.end(), e.name) != data.effects.end())
@@ -1182,8 +1183,11 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   std::ofstream(out_dir + "/diagnosis.json") << js.dump(2) << "\n";
 
   std::ofstream md(out_dir + "/report.md");
-  md << "# Diagnosis of " << data.file << "\n\nScenario: `" << data.scenario << "`, target material(s) `"
-     << join_labels(data.target_materials) << "`, " << data.observations.size() << " observations.\n\n"
+  md << "# Diagnosis of " << data.file << "\n\nScenario: `" << data.scenario << "`";
+  for (size_t i = 0; i < data.scenario_overrides.size(); ++i)
+    md << (i ? ", `" : " with `") << data.scenario_overrides[i] << "`";
+  md << ", target material(s) `" << join_labels(data.target_materials) << "`, " << data.observations.size()
+     << " observations.\n\n"
      << "## Baseline (Mohr-Coulomb/Tresca) fit\n\n";
   for (size_t j = 0; j < baseline.names.size(); ++j)
     md << "- " << baseline.names[j] << " = " << fmt_g(baseline.values[j]) << " +- " << fmt_g(baseline.sigmas[j]) << "\n";

@@ -330,10 +330,18 @@ tamp::ForwardRunOptions forward_options(const std::string& out, int jobs) {
   return fo;
 }
 
-int cmd_calibrate(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                  int iterations, const std::string& method, int jobs, bool resume) {
-  const tamp::ObservationSet data = tamp::load_observations(data_path);
-  const Config cfg = load_deck(data.scenario);
+// The data file with the command line's overrides of its scenario deck (`--set`), checked
+// by loading the deck with them before any work.
+tamp::ObservationSet load_data_with_overrides(const std::string& data_path, const std::vector<std::string>& sets) {
+  tamp::ObservationSet data = tamp::load_observations(data_path);
+  data.scenario_overrides = sets;
+  return data;
+}
+
+int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
+                  const std::string& out, bool force, int iterations, const std::string& method, int jobs, bool resume) {
+  const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
+  const Config cfg = load_deck(data.scenario, data.scenario_overrides);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::CalibrateOptions opt;
@@ -361,10 +369,12 @@ int cmd_calibrate(const std::string& data_path, const std::string& params, const
   return 0;
 }
 
-int cmd_diagnose(const std::string& data_path, const std::string& params, const std::string& out, bool force,
-                 int iterations, double bic_margin, int jobs, bool resume, const std::string& method, int max_steps) {
-  const tamp::ObservationSet data = tamp::load_observations(data_path);
-  tamp::check_target_materials(data, load_deck(data.scenario));  // before the result folder
+int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
+                 const std::string& out, bool force, int iterations, double bic_margin, int jobs, bool resume,
+                 const std::string& method, int max_steps) {
+  const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
+  // the deck with its overrides and the targets checked before the result folder
+  tamp::check_target_materials(data, load_deck(data.scenario, data.scenario_overrides));
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::DiagnoseOptions opt;
@@ -456,6 +466,10 @@ int main(int argc, char** argv) {
   bool resume = false;
   calibrate->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
   calibrate->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
+  const char* scenario_set_help =
+      "Override a value of the data file's scenario deck, as for run: KEY=VALUE, e.g. sph.spacing=0.02 "
+      "(a coarser screening deck)";
+  calibrate->add_option("--set", sets, scenario_set_help);
   auto* diagnose = app.add_subcommand("diagnose", "Calibrate the baseline, refit with each catalogued effect, rank by BIC");
   diagnose->add_option("data", data_path, "Data file (TOML)")->required();
   diagnose->add_option("--params", params, "Baseline parameters (default <target>.Su)");
@@ -470,6 +484,7 @@ int main(int argc, char** argv) {
   diagnose->add_option("--max-steps", max_steps, "Most effects composed, one per step (default 3)")
       ->check(CLI::Range(1, 100));
   diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
+  diagnose->add_option("--set", sets, scenario_set_help);
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
   synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
   synth->add_option("--effect", effect, "none, compaction, rate or remoulding (default none)");
@@ -504,8 +519,8 @@ int main(int argc, char** argv) {
     if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile, forward);
     if (*check) rc = cmd_check(deck, sets);
     if (*compare) rc = cmd_compare(data_path, run_dir);
-    if (*calibrate) rc = cmd_calibrate(data_path, params, out, force, iterations, method, jobs, resume);
-    if (*diagnose) rc = cmd_diagnose(data_path, params, out, force, iterations, bic_margin, jobs, resume, method, max_steps);
+    if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume);
+    if (*diagnose) rc = cmd_diagnose(data_path, sets, params, out, force, iterations, bic_margin, jobs, resume, method, max_steps);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

@@ -534,6 +534,39 @@ TEST_CASE("Loop: a calibration shared by 2 MPI ranks gives the answer of one pro
 }
 #endif
 
+TEST_CASE("Loop: the scenario overrides of calibrate and diagnose are checked before any work", "[loop]") {
+  // `tamp diagnose DATA --set KEY=VALUE` runs the data file's scenario with the override (a
+  // coarser screening deck, docs/closing-the-loop.md). A bad override is bad input: exit 2,
+  // one error line naming the deck and the override, and no result folder made.
+  namespace fs = std::filesystem;
+  const std::string d = temp_dir("overrides");
+  const std::string bin = TAMP_BINARY;
+  const std::string data = std::string(TAMP_SOURCE_DIR) + "/data/lab-observations.toml";
+  struct Case {
+    const char* command;
+    const char* set;
+  };
+  for (const Case& c : {Case{"diagnose", "sph.spacing=0.015"},  // zone edges not at whole spacings
+                        Case{"diagnose", "sph.spacng=0.02"},    // no such key
+                        Case{"calibrate", "clay.Su=abc"}}) {    // not a TOML value
+    const std::string out = d + "/" + c.command;
+    const std::string log = d + "/log.txt";
+    const int status = std::system((bin + " " + c.command + " " + data + " --set " + c.set + " --out " + out + " > " +
+                                    log + " 2>&1")
+                                       .c_str());
+    std::ifstream in(log);
+    std::vector<std::string> errors;
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("[tamp] error:", 0) == 0) errors.push_back(line);
+    INFO(c.command << " --set " << c.set);
+    CHECK((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 2);
+    REQUIRE(errors.size() == 1);
+    CHECK(errors[0].find("lab-test.toml") != std::string::npos);
+    CHECK(errors[0].find(c.set) != std::string::npos);
+    CHECK_FALSE(fs::exists(out));
+  }
+}
+
 TEST_CASE("Loop: a residual the catalogue does not explain is reported with its pattern", "[loop]") {
   // The definition (docs/closing-the-loop.md): error = RMS of the normalised residuals; above
   // 2 a residual remains, and the observations beyond 2 uncertainties are listed by quantity

@@ -129,7 +129,8 @@ struct PounderSpec {
 // Aggregate charges poured into the crater after the blows listed in the schedule.
 struct BackfillSpec {
   std::string material;           // name of a MaterialSpec ("" = no backfill)
-  std::string mode = "fill";      // "fill": up to the original ground level; "mass": a given mass
+  std::string mode = "fill";      // "fill": up to the original ground level; "surface": up to the
+                                  // surface around the crater (heaved); "mass": a given mass
   double mass = 1.0;              // kg per charge, mode "mass"
   double radius = 0.0;            // m, fill inside this radius; 0 = pounder max radius + 2 spacings
 };

@@ -652,7 +652,7 @@ void read_backfill(const Table& top, Config& cfg) {
   bool found = false;
   for (const auto& m : cfg.materials) found = found || m.name == b.material;
   if (!found) t.rep().bad(t.path("material"), *t.find("material"), "is not a known material", join(names, ", "));
-  b.mode = choice(t, "mode", {"fill", "mass"}, "backfill mode", b.mode);
+  b.mode = choice(t, "mode", {"fill", "surface", "mass"}, "backfill mode", b.mode);
   b.mass = number(t, "mass", b.mass, gt(0), "kg");
   b.radius = number(t, "radius", b.radius, ge(0), "m");
 }

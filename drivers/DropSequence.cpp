@@ -377,7 +377,22 @@ void DropSequence::backfill(const Stage& s) {
     for (const auto& b : cfg_.blocks) lo = std::min(lo, b.z_min);
     return lo;
   }();
-  const double z_hi = bf.mode == "fill" ? ground_ : ground_ + 0.5;
+  // The level a charge fills to: the original ground ("fill"), the surface around the crater
+  // ("surface": the mean top of the soil, any material, in the two radial columns of width dp
+  // just outside the fill radius, as a worker fills a hole level with the heaved ground
+  // beside it; never below the original ground), or up to 0.5 m above it ("mass").
+  double z_hi = ground_;
+  if (bf.mode == "mass") z_hi = ground_ + 0.5;
+  if (bf.mode == "surface") {
+    const std::vector<double> top = survey().soil_surface(-1, radius + 3.0 * dp, 3);
+    double sum = 0;
+    int n = 0;
+    for (size_t k = 0; k < top.size(); ++k) {
+      const double rc = (k + 0.5) * dp;
+      if (rc >= radius && rc < radius + 2.0 * dp && top[k] > -1e299) { sum += top[k]; ++n; }
+    }
+    if (n > 0) z_hi = std::max(ground_, sum / n);
+  }
   std::vector<CraterSite> sites;  // cell centres of a grid of spacing dp
   std::vector<double> cr, cz;
   auto site = [&](int k, double z) {
@@ -387,7 +402,7 @@ void DropSequence::backfill(const Stage& s) {
   };
   for (int k = 0; (k + 0.5) * dp < radius; ++k)
     for (int j = 0; ground_ - (j + 0.5) * dp > z_lo; ++j) site(k, ground_ - (j + 0.5) * dp);
-  if (bf.mode == "mass")
+  if (z_hi > ground_)  // sites above the original ground, their centres below the level
     for (int k = 0; (k + 0.5) * dp < radius; ++k)
       for (int j = 0; ground_ + (j + 0.5) * dp < z_hi; ++j) site(k, ground_ + (j + 0.5) * dp);
   const int nc = static_cast<int>(sites.size());
@@ -410,7 +425,8 @@ void DropSequence::backfill(const Stage& s) {
   const double added = result.mass_kg;
   blow_record(s.blow).aggregate_added_kg += added;
   log::info("blow " + std::to_string(s.blow) + ": backfill of " + std::to_string(add.size()) + " particles, " +
-            std::to_string(added) + " kg");
+            std::to_string(added) + " kg" +
+            (bf.mode == "surface" ? ", up to " + std::to_string(1e3 * (z_hi - ground_)) + " mm above the ground" : ""));
   sim_.set_damping(cfg_.schedule.damping);
 }
 

@@ -360,6 +360,7 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
   js["chi2"] = f.chi2;
   js["error"] = f.error;
   js["runs"] = f.runs;
+  js["scenario_overrides"] = data.scenario_overrides;
   js["forward_runs"] = {{"run", runner.runs()}, {"from_cache", runner.cache_hits()}, {"failed", runner.failures()},
                         {"jobs", jobs}, {"ranks", tamp::ranks().size}};
   if (tamp::ranks().rank > 0) return 0;  // rank 0 writes

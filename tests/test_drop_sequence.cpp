@@ -343,6 +343,56 @@ TEST_CASE("Drop sequence: a charge that finds no room in a shallow crater adds n
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
+TEST_CASE("Drop sequence: a charge fills the crater to the original ground, or level with the heaved surface "
+          "around it", "[drop-sequence]") {
+  // [backfill] mode = "surface" (docs/drop-sequence.md): the level is the mean top of the
+  // soil in the two radial columns just outside the fill radius. A clay bed (10 mm spacing)
+  // with a hole of radius 0.06 m from z = 0.06 m up to the original ground at 0.10 m, and a
+  // ring of clay 2 spacings proud of the ground just outside it (0.06 < r < 0.09 m, up to
+  // 0.12 m: the heaved rim); fill radius 0.06 m (pounder 0.08 m wide + 2 spacings). One
+  // blow from 5 mm, then a charge. The two runs are the same until the charge; "surface"
+  // fills the hole's 6 columns 2 rows higher: the ring masses rho 2 pi r_c dp^2 of those 12
+  // sites, 2 x 1835 x 2 pi x 18 dp^3 = 0.4151 kg more (to round-off, 1e-12). Both charges
+  // stay below the level they fill to. Under 1 s on 2 threads.
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  Config cfg = load_deck(deck_path);
+  const double dp = 0.01;
+  cfg.sph.spacing = dp;
+  cfg.blocks = {{"clay", 0.0, 0.15, 0.0, 0.06}, {"clay", 0.06, 0.15, 0.06, 0.10}, {"clay", 0.06, 0.09, 0.10, 0.12}};
+  cfg.bottom.position = 0.0;
+  cfg.outer.position = 0.15;
+  cfg.pounder.base_diameter = 0.07;
+  cfg.pounder.max_diameter = 0.08;
+  cfg.pounder.height = 0.1;
+  cfg.schedule.ground_level = 0.10;
+  cfg.schedule.drop_heights = {0.005};
+  cfg.schedule.backfill_after = {1};
+  cfg.tracers.clear();
+  const double rho = cfg.materials[2].density;  // the aggregate
+  double expected = 0;
+  for (int k = 0; k < 6; ++k) expected += 2 * rho * 2.0 * tamp::pi * (k + 0.5) * dp * dp * dp;
+  auto charge = [&](const std::string& mode) {
+    Config c = cfg;
+    c.backfill.mode = mode;
+    const RunResult run = run_config(c, fresh_dir("backfill_" + mode));
+    REQUIRE(run.blows.size() == 1);
+    double top = -1;  // highest aggregate particle centre
+    for (size_t i = 0; i < run.final_state.size(); ++i)
+      if (run.final_state.material[i] == 2) top = std::max(top, run.final_state.z[i]);
+    std::printf("[backfill] mode %s: charge %.4f kg, its highest grain at %.4f m\n", mode.c_str(),
+                run.blows[0].aggregate_added_kg, top);
+    return std::make_pair(run.blows[0].aggregate_added_kg, top);
+  };
+  const auto [fill_kg, fill_top] = charge("fill");
+  const auto [surface_kg, surface_top] = charge("surface");
+  CHECK(fill_kg > 0.0);
+  CHECK(surface_kg - fill_kg == Approx(expected).epsilon(1e-12));
+  CHECK(fill_top < 0.10);
+  CHECK(surface_top > 0.10);
+  CHECK(surface_top < 0.12);
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
 namespace {
 // The CI scenario with a fourth and fifth blow and charges after blows 3 and 4, run whole and
 // restarted from each named checkpoint of the whole run: every blow's crater and uplift must

@@ -852,6 +852,25 @@ const std::vector<double>& profile_factors() {
 // by side. Then Nelder-Mead over the current parameters and the effect's from the best point.
 // (The strength and the effect trade off along a narrow valley that a simplex started at
 // one end does not follow; the grid finds the valley, the simplex its floor.)
+// The parameters a candidate is fitted with on top of the current model (`with_effect`: the
+// current model with the candidate applied): the current ones, then the effect's own. A model
+// switch replaces the parameters of its material that the new model does not have (Su of a
+// Tresca clay) by its strength key: the same number of parameters as an effect.
+std::vector<std::string> candidate_params(const Config& with_effect, const std::vector<std::string>& current_params,
+                                          const StepCandidate& cand) {
+  std::vector<std::string> params = current_params;
+  if (!cand.effect->model.empty()) {
+    const std::string strength = cand.material + "." + cand.effect->strength;
+    params.clear();
+    for (const auto& p : current_params) {
+      const std::string q = has_param(with_effect, p) ? p : strength;
+      if (std::find(params.begin(), params.end(), q) == params.end()) params.push_back(q);
+    }
+  }
+  for (const auto& [k, v] : cand.effect->fitted) params.push_back(cand.material + "." + k);
+  return params;
+}
+
 FitResult profile_fit(const Config& current, const std::vector<std::string>& current_params,
                       const std::string& refit_param0, const StepCandidate& cand, const ObservationSet& data,
                       const CalibrateOptions& opt) {
@@ -859,19 +878,8 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
   Config c = current;
   apply_effect(c, cand.material, cand.effect->name);
   const std::string key = cand.material + "." + cand.effect->fitted[0].first;
-  // A model switch replaces the parameters of its material that the new model does not have
-  // (Su of a Tresca clay) by its strength key: the same number of parameters as an effect.
-  std::vector<std::string> kept = current_params;
   std::string refit_param = refit_param0;
-  if (!cand.effect->model.empty()) {
-    const std::string strength = cand.material + "." + cand.effect->strength;
-    kept.clear();
-    for (const auto& p : current_params) {
-      const std::string q = has_param(c, p) ? p : strength;
-      if (std::find(kept.begin(), kept.end(), q) == kept.end()) kept.push_back(q);
-    }
-    if (!has_param(c, refit_param)) refit_param = strength;
-  }
+  if (!cand.effect->model.empty() && !has_param(c, refit_param)) refit_param = cand.material + "." + cand.effect->strength;
   const double v0 = get_param(c, refit_param);
   std::vector<Config> batch;
   for (double g : cand.effect->grid)
@@ -895,8 +903,7 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
     log::info("diagnose:   " + key + " = " + fmt_g(cand.effect->grid[i]) + ": chi2 " + fmt_g(row) + " (best " +
               refit_param + " of the scan)");
   }
-  std::vector<std::string> params = kept;
-  for (const auto& [k, v] : cand.effect->fitted) params.push_back(cand.material + "." + k);
+  const std::vector<std::string> params = candidate_params(c, current_params, cand);
   CalibrateOptions fo = opt;
   fo.max_runs = 6 + 5 * static_cast<int>(params.size());
   fo.simplex_steps.assign(params.size(), 0.1);
@@ -911,6 +918,9 @@ struct DiagnosisStep {
   FitResult start;
   std::vector<std::pair<StepCandidate, FitResult>> fits;
   int chosen = -1;
+  // A step not run because no candidate could be selected: the lowest BIC any candidate could
+  // reach (its parameters times ln n, with chi2 = 0); NaN for a step that was run.
+  double bic_floor = std::numeric_limits<double>::quiet_NaN();
 };
 
 std::string join_labels(const std::vector<std::string>& labels) {
@@ -1022,6 +1032,29 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   for (int k = 0; k < opt.max_steps && !remaining.empty(); ++k) {
     for (size_t j = 0; j < current.names.size(); ++j) set_param(current_cfg, current.names[j], current.values[j]);
     DiagnosisStep st;
+    // A step that no candidate can win is not run. A candidate fitted with q parameters has
+    // BIC = chi2 + q ln n >= q ln n, and it is selected only below the current BIC minus the
+    // margin; when the current fit is already that close to chi2 = 0 (its misfit within what
+    // the noise and q more parameters explain), the refits could only confirm "none". Exact:
+    // the selection is the one the refits would give (only the fair comparison's side effect,
+    // a better start found at a candidate's values, is not sought).
+    double bic_floor = std::numeric_limits<double>::infinity();
+    for (const auto& cand : remaining) {
+      Config c = current_cfg;
+      apply_effect(c, cand.material, cand.effect->name);
+      bic_floor = std::min(bic_floor, static_cast<double>(candidate_params(c, current.names, cand).size()) *
+                                  std::log(static_cast<double>(current.n)));
+    }
+    if (!(bic_floor < current.bic() - opt.bic_margin)) {
+      if (k == 0) error_before = current.error;
+      st.start = current;
+      st.bic_floor = bic_floor;
+      log::info("diagnose: step " + std::to_string(k + 1) + " not run: no candidate can lower BIC " +
+                fmt_g(current.bic()) + " by " + fmt_g(opt.bic_margin) + " (each has BIC >= " + fmt_g(bic_floor) +
+", its parameters times ln n)");
+      steps.push_back(st);
+      break;
+    }
     // the candidates' fits side by side: their batches merged, so that the simplex moves of
     // one share the workers with the others' (the answers of one fit after the other)
     log::info("diagnose: step " + std::to_string(k + 1) + ", " + std::to_string(remaining.size()) +
@@ -1165,6 +1198,12 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     p["selected"] = st.chosen < 0 ? std::string("none") : st.fits[static_cast<size_t>(st.chosen)].first.label;
     p["material"] = st.chosen < 0 ? std::string() : st.fits[static_cast<size_t>(st.chosen)].first.material;
     p["start"] = fit_json(selected_before(k), st.start);
+    if (!std::isnan(st.bic_floor))  // not run: no candidate could be selected
+      p["not_run"] = {{"bic_floor", st.bic_floor},
+                      {"start_bic", st.start.bic()},
+                      {"bic_margin", opt.bic_margin},
+                      {"why", "every candidate's BIC is at least its parameters times ln n (chi2 = 0), not below "
+                              "the start's BIC minus the margin"}};
     if (st.chosen >= 0) {
       const auto& [cand, fit] = st.fits[static_cast<size_t>(st.chosen)];
       p["fit"] = fit_json(cand.label, fit);
@@ -1210,6 +1249,11 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
        << "| model | parameters | chi2 | error (RMS) | BIC | forward runs | heave / column volume |\n|---|---|---|---|---|---|---|\n";
     row(k == 0 ? std::string("none (baseline)") : "start", st.start);
     for (const auto& [cand, f] : st.fits) row(cand.label, f);
+    if (!std::isnan(st.bic_floor))
+      md << "\nNot run: every candidate would have BIC >= " << fmt_g(st.bic_floor)
+         << " (its parameters times ln n, with chi2 = 0), not below the start's " << fmt_g(st.start.bic()) << " minus "
+         << opt.bic_margin << ": the start's misfit is within what the noise explains, and no candidate can earn "
+         << "its parameters.\n";
     md << "\n"
        << (st.chosen < 0 ? std::string("No candidate earns its parameters: the diagnosis stops.")
                          : "Selected: **" + st.fits[static_cast<size_t>(st.chosen)].first.label + "**, error " +

@@ -15,6 +15,7 @@
 #include "core/Log.hpp"
 #include "drivers/ForwardRuns.hpp"
 #include "drivers/Calibration.hpp"
+#include <nlohmann/json.hpp>
 
 // Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
 // CUDA math headers (nvcc).
@@ -312,6 +313,20 @@ TEST_CASE("Loop: a clay that is Modified Cam-Clay is found by the model switch a
 TEST_CASE("Loop: shifted baseline parameters without an effect give 'none'", "[loop][verification]") {
   const Outcome o = undeclared("none", "none", {{"clay.Su", 12.5e3}}, 13);
   CHECK(o.selected == "none");
+  // The baseline refitted to the shifted Su has its misfit within the noise (chi2 7.8 on 8
+  // observations): a candidate's BIC is at least its 2 parameters times ln 8 = 4.16, not
+  // below the baseline's BIC minus the margin 6, so no refit could be selected and step 1 is
+  // recorded as not run, with that bound (exact: the answer the refits would give; the
+  // refits' false-positive guard is exercised by test (e) and step 2 of the compaction test).
+  const auto js = nlohmann::json::parse(o.json);
+  REQUIRE(js["path"].size() == 1);
+  const auto& step = js["path"][0];
+  REQUIRE(step.contains("not_run"));
+  const double start_bic = step["start"]["bic"].get<double>();
+  CHECK(step["not_run"]["start_bic"].get<double>() == Approx(start_bic));
+  CHECK(step["not_run"]["bic_floor"].get<double>() == Approx(2 * std::log(8.0)));  // Su + the effect's, n = 8
+  CHECK(step["not_run"]["bic_floor"].get<double>() >= start_bic - js["bic_margin"].get<double>());
+  CHECK(step["candidates"].empty());
 }
 
 TEST_CASE("Loop: a damaged run folder is an error naming the file, row and column", "[loop]") {

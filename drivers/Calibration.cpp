@@ -846,12 +846,6 @@ const std::vector<double>& profile_factors() {
   return f;
 }
 
-// A candidate refitted on top of the current model: a profile over the effect's grid (from
-// nearly off to strong), at every grid value the first baseline parameter scanned over
-// profile_factors() of its current value; all points of grid x scan are one batch, run side
-// by side. Then Nelder-Mead over the current parameters and the effect's from the best point.
-// (The strength and the effect trade off along a narrow valley that a simplex started at
-// one end does not follow; the grid finds the valley, the simplex its floor.)
 // The parameters a candidate is fitted with on top of the current model (`with_effect`: the
 // current model with the candidate applied): the current ones, then the effect's own. A model
 // switch replaces the parameters of its material that the new model does not have (Su of a
@@ -871,6 +865,12 @@ std::vector<std::string> candidate_params(const Config& with_effect, const std::
   return params;
 }
 
+// A candidate refitted on top of the current model: a profile over the effect's grid (from
+// nearly off to strong), at every grid value the first baseline parameter scanned over
+// profile_factors() of its current value; all points of grid x scan are one batch, run side
+// by side. Then Nelder-Mead over the current parameters and the effect's from the best point.
+// (The strength and the effect trade off along a narrow valley that a simplex started at
+// one end does not follow; the grid finds the valley, the simplex its floor.)
 FitResult profile_fit(const Config& current, const std::vector<std::string>& current_params,
                       const std::string& refit_param0, const StepCandidate& cand, const ObservationSet& data,
                       const CalibrateOptions& opt) {
@@ -1051,7 +1051,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
       st.bic_floor = bic_floor;
       log::info("diagnose: step " + std::to_string(k + 1) + " not run: no candidate can lower BIC " +
                 fmt_g(current.bic()) + " by " + fmt_g(opt.bic_margin) + " (each has BIC >= " + fmt_g(bic_floor) +
-", its parameters times ln n)");
+                ", its parameters times ln n)");
       steps.push_back(st);
       break;
     }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -123,14 +124,20 @@ ParticleSurvey DropSequence::survey() const { return sim_.survey(); }
 // uplift's surface asks for, are what the pounder rested on (lab run, blow 7: the 3-neighbour
 // rule put the floor 34 mm below the pounder's base).
 double DropSequence::crater_floor() const {
+  const double top = mean_soil_top(0.0, 0.5 * cfg_.pounder.base_diameter, 1);
+  return std::isnan(top) ? 0.0 : ground_ - top;
+}
+
+double DropSequence::mean_soil_top(double r_in, double r_out, int neighbours) const {
   const double dp = cfg_.sph.spacing;
-  const double rb = 0.5 * cfg_.pounder.base_diameter;
-  const std::vector<double> top = survey().soil_surface(-1, rb + dp, 1);
+  const std::vector<double> top = survey().soil_surface(-1, r_out + dp, neighbours);
   double sum = 0;
   int n = 0;
-  for (size_t k = 0; k < top.size(); ++k)
-    if ((k + 0.5) * dp < rb && top[k] > -1e299) { sum += top[k]; ++n; }
-  return n ? ground_ - sum / n : 0.0;
+  for (size_t k = 0; k < top.size(); ++k) {
+    const double rc = (k + 0.5) * dp;
+    if (rc >= r_in && rc < r_out && top[k] > -1e299) { sum += top[k]; ++n; }  // -1e300: no soil
+  }
+  return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
 }
 
 void DropSequence::begin_impact(const Stage& s) {
@@ -384,14 +391,8 @@ void DropSequence::backfill(const Stage& s) {
   double z_hi = ground_;
   if (bf.mode == "mass") z_hi = ground_ + 0.5;
   if (bf.mode == "surface") {
-    const std::vector<double> top = survey().soil_surface(-1, radius + 3.0 * dp, 3);
-    double sum = 0;
-    int n = 0;
-    for (size_t k = 0; k < top.size(); ++k) {
-      const double rc = (k + 0.5) * dp;
-      if (rc >= radius && rc < radius + 2.0 * dp && top[k] > -1e299) { sum += top[k]; ++n; }
-    }
-    if (n > 0) z_hi = std::max(ground_, sum / n);
+    const double level = mean_soil_top(radius, radius + 2.0 * dp, 3);
+    if (!std::isnan(level)) z_hi = std::max(ground_, level);
   }
   std::vector<CraterSite> sites;  // cell centres of a grid of spacing dp
   std::vector<double> cr, cz;

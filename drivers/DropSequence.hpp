@@ -151,6 +151,10 @@ class DropSequence : public Run {
   bool impact_step();       // false when the stage is done
   void end_impact(BlowRecord& rec);
   double crater_floor() const;
+  // Mean top of the soil (any material; particles with at least `neighbours` within 1.5 dp)
+  // over the radial columns of width dp whose centres lie in [r_in, r_out), m; NaN where no
+  // column there has soil.
+  double mean_soil_top(double r_in, double r_out, int neighbours) const;
   std::vector<double> energy_state() const;  // what the blow's energy account differences
   void backfill(const Stage& s);
   void end_stage(int k);

@@ -330,8 +330,8 @@ tamp::ForwardRunOptions forward_options(const std::string& out, int jobs) {
   return fo;
 }
 
-// The data file with the command line's overrides of its scenario deck (`--set`), checked
-// by loading the deck with them before any work.
+// The data file with the command line's overrides of its scenario deck (`--set`); the
+// callers check them by loading the deck with them before any work.
 tamp::ObservationSet load_data_with_overrides(const std::string& data_path, const std::vector<std::string>& sets) {
   tamp::ObservationSet data = tamp::load_observations(data_path);
   data.scenario_overrides = sets;

@@ -2,6 +2,8 @@
 // effect tests: synthetic data made by the engine with an effect that `diagnose` is not
 // told about, on the tiny scenario examples/synthetic/tiny-drop.toml.
 #include <catch2/catch.hpp>
+#include <Kokkos_Core.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -193,10 +195,12 @@ TEST_CASE("Loop: a model switch sets the new model, its keys and its strength fr
 
 namespace {
 // synth (the truth: the deck changed by `make_truth`, seeded noise) -> diagnose of the
-// unchanged deck; returns the selected effects and the errors. The diagnosis runs its
-// forward runs 2 side by side (child processes of 1 thread: the tiny scenario's 150
-// particles use a second thread poorly); the answer is the same for any number of workers
-// (test "[forward-runs]").
+// unchanged deck; returns the selected effects and the errors. The diagnosis runs as many
+// forward runs side by side as this process has threads (OMP_NUM_THREADS): with 2, child
+// processes of 1 thread each (the tiny scenario's 150 particles use a second thread
+// poorly); with 1, one at a time in this process, which is how scripts/run-tests runs it,
+// two tests at a time. The answer is the same for any number of workers (test
+// "[forward-runs]").
 struct Outcome {
   std::string selected;
   double before, after;
@@ -221,7 +225,7 @@ Outcome undeclared(const std::string& name, const std::function<void(Config&)>& 
   }
   DiagnoseOptions opt;
   opt.fit.verbose = false;
-  opt.jobs = 2;
+  opt.jobs = std::max(1, static_cast<int>(Kokkos::DefaultExecutionSpace::concurrency()));
   opt.tamp_binary = TAMP_BINARY;
   // TAMP_LOOP_METHOD=bobyqa (or sbplx, lm) runs the diagnosis with another fit method, for
   // comparing methods on these tests (docs/closing-the-loop.md); the default is Nelder-Mead.

@@ -929,17 +929,14 @@ FitResult polish_selected(const Config& current, const StepCandidate& cand, FitR
     CalibrateOptions po = opt;
     po.max_runs = 6 + 5 * q;
     po.simplex_steps.assign(f.names.size(), 0.05);
-    FitResult g = calibrate(c, data, f.names, po);
-    const double gain = f.chi2 - g.chi2;
+    const FitResult g = calibrate(c, data, f.names, po);
     log::info("diagnose:   '" + cand.label + "' polished again: chi2 " + fmt_g(f.chi2) + " -> " +
               fmt_g(std::min(f.chi2, g.chi2)) + " (" + std::to_string(g.runs) + " runs)");
-    g.runs += f.runs;
-    if (!(gain > 0)) {
-      f.runs = g.runs;
-      break;
-    }
-    f = g;
-    if (gain < 0.01 * (f.chi2 + gain)) break;
+    const int runs = f.runs + g.runs;
+    const double before = f.chi2;
+    if (g.chi2 < before) f = g;
+    f.runs = runs;
+    if (!(before - f.chi2 >= 0.01 * before)) break;  // no gain, or under 1 %
   }
   return f;
 }

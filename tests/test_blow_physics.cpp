@@ -4,11 +4,13 @@
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include "SphTestUtil.hpp"
 #include "core/Log.hpp"
@@ -315,9 +317,15 @@ HeapShape heap_shape(const Simulation& sim, double dp, double domain_radius) {
 
 // The particles of a heap as CSV (r, z, velocity, density, stress, mass), for a look: written
 // where the environment variable `var` points, if it is set (docs/drop-sequence.md).
-void dump_heap(const Simulation& sim, const char* var) {
-  const char* path = std::getenv(var);
-  if (!path) return;
+void dump_heap(const Simulation& sim, const char* var, int index = -1) {
+  const char* env = std::getenv(var);
+  if (!env) return;
+  std::string path = env;  // with an index: heap.csv -> heap-<index>.csv
+  if (index >= 0) {
+    const auto dot = path.rfind('.');
+    path = (dot == std::string::npos ? path : path.substr(0, dot)) + "-" + std::to_string(index) +
+           (dot == std::string::npos ? "" : path.substr(dot));
+  }
   const auto s = sim.snapshot();
   std::vector<std::vector<double>> rows;
   for (size_t i = 0; i < s.r.size(); ++i)
@@ -511,9 +519,10 @@ TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and com
 }
 
 // Hidden (known defect, docs/drop-sequence.md "The aggregate as a poured material"): poured
-// with the grains separating below 1526 kg/m3, the heap stands at 30.8 deg at 10 mm, 5.4 deg
-// below the 36.2 deg a non-dilatant phi = 47 charge should reach, and its separated surface
-// grains still slide (15 mm/s). Never separating it stands at 34.0 deg and comes to rest.
+// with the grains separating below 1526 kg/m3, five pours stand at 28.3 deg (sample std 3.2,
+// standard error 1.4) at 10 mm, 8 deg below the 36.2 deg a non-dilatant phi = 47 charge
+// should reach, and their separated surface grains still slide (10-27 mm/s). Never
+// separating they stand at 32.0 deg (std 3.2) and come to rest (fastest 4.1 mm/s).
 // Run it by name: tamp_tests "Aggregate: a heap*".
 TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
           "[.][known-defect][aggregate]") {
@@ -530,15 +539,25 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   // grains of the never-separating pour: every one at yield, major compression at 40 deg
   // (median) to the flank, tau / sigma_n on the flank's plane 0.72 (median; sin 47 = 0.73,
   // tan 47 = 1.07) (docs/drop-sequence.md). Rest: every particle slower than 5 mm/s at the end.
+  // One pour is one sample of a chaotic process: with 250 particles and 14-18 surface
+  // bands, the flank of a single pour moves by 2-4 deg with any change (docs/drop-sequence.md).
+  // The test pours an ensemble: pour 0 drops every grain at the centre of its band (the
+  // lattice rain of the earlier single-pour test); pours 1, 2, ... drop each grain at a
+  // radius jittered by up to +-0.1 spacing (a fixed pseudo-random sequence per pour, so the
+  // test is deterministic), as a real rain does. The flank asserted is the ensemble mean;
+  // its standard error is printed.
   tamp::log::set_level(tamp::log::Level::Quiet);
   // For the study in docs/drop-sequence.md, the environment may change the spacing, the pour
-  // radius, the friction angle, the cohesion, the separation density (0 = never), the rows
-  // poured at once, the inner radius of an annular pour (a ridge) and write the particles.
+  // radius, the friction angle, the dilation angle, the cohesion, the separation density
+  // (0 = never), the viscosity alpha, the kernel correction, the damping and settling time,
+  // the rows poured at once, the inner radius of an annular pour (a ridge), the number of
+  // pours, and write the particles of every pour (heap.csv -> heap-<pour>.csv).
   auto knob = [](const char* name, double value) { return std::getenv(name) ? std::atof(std::getenv(name)) : value; };
   const double dp = knob("TAMP_HEAP_DP", 0.01);
   const double R_in = knob("TAMP_HEAP_RIN", 0.0);  // > 0: a ridge poured on an annulus (almost plane strain)
   const double W = 0.5 + R_in, R_pour = knob("TAMP_HEAP_RPOUR", 0.1);
   const int rows = static_cast<int>(std::lround(0.25 / dp));
+  const int pours = std::max(1, static_cast<int>(knob("TAMP_HEAP_POURS", 5)));
   Config cfg = aggregate_cone(45.0, R_pour, dp, W);
   cfg.blocks.resize(1);  // the first row: a disk one spacing thick
   cfg.blocks[0].r_min = R_in;
@@ -549,34 +568,51 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   agg.cohesion = knob("TAMP_HEAP_C", agg.cohesion);
   agg.separation_density = knob("TAMP_HEAP_SEPARATION", agg.separation_density);
   cfg.sph.kernel_correction = knob("TAMP_HEAP_KERNEL_CORRECTION", 0) != 0;
-  Simulation sim(cfg);
-  sim.set_damping(knob("TAMP_HEAP_DAMPING", 0.0));  // 1/s, mass-proportional, as the lab's settle phases
-  const int nr = static_cast<int>(std::lround(R_pour / dp)), k0 = static_cast<int>(std::lround(R_in / dp));
-  const int per_pour = static_cast<int>(knob("TAMP_HEAP_ROWS_PER_POUR", 1));
-  for (int row = 1; row < rows; row += per_pour) {
-    sim.advance_to(sim.time() + 0.05 * per_pour);
-    const auto s = tamp::testing::host_state(sim);
-    std::vector<double> top(nr, 0.0);
-    for (size_t i = 0; i < s.r.size(); ++i) {
-      const int k = static_cast<int>(s.r[i] / dp) - k0;
-      if (k >= 0 && k < nr) top[k] = std::max(top[k], s.z[i]);
-    }
-    std::vector<tamp::NewParticle> add;
-    for (int j = 0; j < per_pour && row + j < rows; ++j)
-      for (int k = 0; k < nr; ++k) add.push_back({R_in + (k + 0.5) * dp, top[k] + (1 + j) * dp, 0});
-    sim.add_particles(add);
-  }
-  sim.advance_to(sim.time() + knob("TAMP_HEAP_SETTLE", 1.5));
-  const HeapShape h = heap_shape(sim, dp, W);
-  dump_heap(sim, "TAMP_HEAP_DUMP");
-  std::printf("[heap] poured: %zu particles, height %.3f m, flank %.1f deg (%d bands), fastest particle %.2e m/s\n",
-              sim.snapshot().r.size(), h.height, h.flank_deg, h.bands, h.vmax);
+  cfg.sph.alpha = knob("TAMP_HEAP_ALPHA", cfg.sph.alpha);
   // Davis's simple-shear friction, tan = sin(phi) cos(psi) / (1 - sin(phi) sin(psi)): 36.2 deg at phi 47, psi 0
   const double sp = std::sin(agg.phi_deg * M_PI / 180.0), psi = agg.psi_deg * M_PI / 180.0;
   const double repose_deg = std::atan(sp * std::cos(psi) / (1.0 - sp * std::sin(psi))) * 180.0 / M_PI;
+  const int nr = static_cast<int>(std::lround(R_pour / dp)), k0 = static_cast<int>(std::lround(R_in / dp));
+  const int per_pour = static_cast<int>(knob("TAMP_HEAP_ROWS_PER_POUR", 1));
+  std::vector<double> flanks;
+  double fastest = 0;
+  for (int pour = 0; pour < pours; ++pour) {
+    Simulation sim(cfg);
+    sim.set_damping(knob("TAMP_HEAP_DAMPING", 0.0));  // 1/s, mass-proportional, as the lab's settle phases
+    uint64_t state = 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(pour + 1);
+    auto jitter = [&]() {  // in [-1, 1): a 64-bit linear congruential sequence (Knuth's MMIX constants)
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      return pour == 0 ? 0.0 : static_cast<double>(state >> 11) / 4503599627370496.0 - 1.0;
+    };
+    for (int row = 1; row < rows; row += per_pour) {
+      sim.advance_to(sim.time() + 0.05 * per_pour);
+      const auto s = tamp::testing::host_state(sim);
+      std::vector<double> top(nr, 0.0);
+      for (size_t i = 0; i < s.r.size(); ++i) {
+        const int k = static_cast<int>(s.r[i] / dp) - k0;
+        if (k >= 0 && k < nr) top[k] = std::max(top[k], s.z[i]);
+      }
+      std::vector<tamp::NewParticle> add;
+      for (int j = 0; j < per_pour && row + j < rows; ++j)
+        for (int k = 0; k < nr; ++k) add.push_back({R_in + (k + 0.5 + 0.1 * jitter()) * dp, top[k] + (1 + j) * dp, 0});
+      sim.add_particles(add);
+    }
+    sim.advance_to(sim.time() + knob("TAMP_HEAP_SETTLE", 1.5));
+    const HeapShape h = heap_shape(sim, dp, W);
+    dump_heap(sim, "TAMP_HEAP_DUMP", pours > 1 ? pour : -1);
+    std::printf("[heap] pour %d: %zu particles, height %.3f m, flank %.1f deg (%d bands), fastest particle %.2e m/s\n",
+                pour, sim.snapshot().r.size(), h.height, h.flank_deg, h.bands, h.vmax);
+    flanks.push_back(h.flank_deg);
+    fastest = std::max(fastest, h.vmax);
+  }
+  double mean = 0, var = 0;
+  for (double f : flanks) mean += f / pours;
+  for (double f : flanks) var += (f - mean) * (f - mean) / std::max(1, pours - 1);
+  std::printf("[heap] %d pours: flank %.1f deg (sample std %.1f, standard error %.1f), fastest particle %.2e m/s\n",
+              pours, mean, std::sqrt(var), std::sqrt(var / pours), fastest);
   std::printf("[heap] target (simple-shear friction of phi %.0f, psi %.0f) %.1f deg +- 3\n", agg.phi_deg, agg.psi_deg,
               repose_deg);
-  CHECK(std::fabs(h.flank_deg - repose_deg) < 3.0);
-  CHECK(h.vmax < 5e-3);
+  CHECK(std::fabs(mean - repose_deg) < 3.0);
+  CHECK(fastest < 5e-3);
   tamp::log::set_level(tamp::log::Level::Info);
 }

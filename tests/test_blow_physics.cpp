@@ -551,10 +551,12 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   // its standard error is printed.
   tamp::log::set_level(tamp::log::Level::Quiet);
   // For the study in docs/drop-sequence.md, the environment may change the spacing, the pour
-  // radius, the friction angle, the dilation angle, the cohesion, the separation density
-  // (0 = never), the viscosity alpha, the kernel correction, the damping and settling time,
-  // the rows poured at once, the inner radius of an annular pour (a ridge), the number of
-  // pours, and write the particles of every pour (heap.csv -> heap-<pour>.csv).
+  // radius, the friction angle, the dilation angle, the cohesion, the shear modulus, the
+  // separation density (0 = never), the viscosity alpha, the smoothing length, the kernel
+  // correction, the damping and settling time (and a release of the damping), the rows
+  // poured at once, the inner radius of an annular pour (a ridge), the number of pours,
+  // print the flank while fed, and write the particles of every pour (heap.csv ->
+  // heap-<pour>.csv).
   auto knob = [](const char* name, double value) { return std::getenv(name) ? std::atof(std::getenv(name)) : value; };
   const double dp = knob("TAMP_HEAP_DP", 0.01);
   const double R_in = knob("TAMP_HEAP_RIN", 0.0);  // > 0: a ridge poured on an annulus (almost plane strain)
@@ -569,6 +571,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   agg.phi_deg = knob("TAMP_HEAP_PHI", agg.phi_deg);
   agg.psi_deg = knob("TAMP_HEAP_PSI", agg.psi_deg);
   agg.cohesion = knob("TAMP_HEAP_C", agg.cohesion);
+  agg.shear_modulus = knob("TAMP_HEAP_G", agg.shear_modulus);  // Pa
   agg.separation_density = knob("TAMP_HEAP_SEPARATION", agg.separation_density);
   cfg.sph.kernel_correction = knob("TAMP_HEAP_KERNEL_CORRECTION", 0) != 0;
   cfg.sph.alpha = knob("TAMP_HEAP_ALPHA", cfg.sph.alpha);

@@ -110,7 +110,7 @@ def state(a):
         v = math.hypot(d["vr"][i], d["vz"][i])
         s = [d[k][i] for k in ("srr", "szz", "stt", "srz")]
         key = "moving" if v > 0.02 else ("slow" if v > 0.002 else "at rest")
-        groups.setdefault(key, []).append((all(x == 0.0 for x in s), -(s[0] + s[1] + s[2]) / 3, d["density"][i]))
+        groups.setdefault(key, []).append((all(x == 0.0 for x in s), -(s[0] + s[1] + s[2]) / 3 + 0.0, d["density"][i]))
     print("speed | particles | zero stress | median p (Pa) | median density (kg/m3)")
     for key in ("at rest", "slow", "moving"):
         g = groups.get(key, [])

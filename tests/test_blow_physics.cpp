@@ -581,11 +581,23 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   const double repose_deg = std::atan(sp * std::cos(psi) / (1.0 - sp * std::sin(psi))) * 180.0 / M_PI;
   const int nr = static_cast<int>(std::lround(R_pour / dp)), k0 = static_cast<int>(std::lround(R_in / dp));
   const int per_pour = static_cast<int>(knob("TAMP_HEAP_ROWS_PER_POUR", 1));
+  // With TAMP_HEAP_FED=1, the flank one row interval after the last row, while the heap is
+  // still flowing (docs/drop-sequence.md "After the feed stops, the heap slumps"); off by
+  // default, because stopping there changes the step sequence and so the chaotic pours.
+  // TAMP_HEAP_RELEASE = t: the damping acts for t s of the settle, then it is undamped.
+  const bool fed_probe = knob("TAMP_HEAP_FED", 0) != 0;
+  const double damping = knob("TAMP_HEAP_DAMPING", 0.0);  // 1/s, mass-proportional, as the lab's settle phases
+  const double settle = knob("TAMP_HEAP_SETTLE", 1.5), release = knob("TAMP_HEAP_RELEASE", 0.0);
+  auto mean_of = [](const std::vector<double>& x) {
+    double m = 0;
+    for (double f : x) m += f / x.size();
+    return m;
+  };
   std::vector<double> flanks, fed_flanks;
   double fastest = 0;
   for (int pour = 0; pour < pours; ++pour) {
     Simulation sim(cfg);
-    sim.set_damping(knob("TAMP_HEAP_DAMPING", 0.0));  // 1/s, mass-proportional, as the lab's settle phases
+    sim.set_damping(damping);
     uint64_t state = 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(pour + 1);
     auto jitter = [&]() {  // in [-1, 1): a 64-bit linear congruential sequence (Knuth's MMIX constants)
       state = state * 6364136223846793005ull + 1442695040888963407ull;
@@ -604,13 +616,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
         for (int k = 0; k < nr; ++k) add.push_back({R_in + (k + 0.5 + 0.1 * jitter()) * dp, top[k] + (1 + j) * dp, 0});
       sim.add_particles(add);
     }
-    // With TAMP_HEAP_FED=1, the flank one row interval after the last row, while the heap
-    // is still flowing (docs/drop-sequence.md "After the feed stops, the heap slumps"); off
-    // by default, because stopping there changes the step sequence and so the chaotic pours.
-    // TAMP_HEAP_RELEASE = t: the damping acts for t s of the settle, then it is undamped.
-    const bool fed_probe = knob("TAMP_HEAP_FED", 0) != 0;
-    const double settle = knob("TAMP_HEAP_SETTLE", 1.5), release = knob("TAMP_HEAP_RELEASE", 0.0);
-    double settled = 0;
+    double settled = 0;  // s of the settle already run
     if (fed_probe) {
       sim.advance_to(sim.time() + 0.05 * per_pour);
       settled += 0.05 * per_pour;
@@ -633,16 +639,14 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
     flanks.push_back(h.flank_deg);
     fastest = std::max(fastest, h.vmax);
   }
-  double mean = 0, var = 0;
-  for (double f : flanks) mean += f / pours;
+  const double mean = mean_of(flanks);
+  double var = 0;
   for (double f : flanks) var += (f - mean) * (f - mean) / std::max(1, pours - 1);
   std::printf("[heap] %d pours: flank %.1f deg (sample std %.1f, standard error %.1f), fastest particle %.2e m/s\n",
               pours, mean, std::sqrt(var), std::sqrt(var / pours), fastest);
-  if (!fed_flanks.empty()) {
-    double fed_mean = 0;
-    for (double f : fed_flanks) fed_mean += f / pours;
-    std::printf("[heap] %d pours: flank %.1f deg while fed (one row interval after the last row)\n", pours, fed_mean);
-  }
+  if (fed_probe)
+    std::printf("[heap] %d pours: flank %.1f deg while fed (one row interval after the last row)\n", pours,
+                mean_of(fed_flanks));
   std::printf("[heap] target (simple-shear friction of phi %.0f, psi %.0f) %.1f deg +- 3\n", agg.phi_deg, agg.psi_deg,
               repose_deg);
   CHECK(std::fabs(mean - repose_deg) < 3.0);

@@ -553,10 +553,10 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   // For the study in docs/drop-sequence.md, the environment may change the spacing, the pour
   // radius, the friction angle, the dilation angle, the cohesion, the shear modulus, the
   // separation density (0 = never), the viscosity alpha, the smoothing length, the kernel
-  // correction, the damping and settling time (and a release of the damping), the rows
-  // poured at once, the inner radius of an annular pour (a ridge), the number of pours,
-  // print the flank while fed, and write the particles of every pour (heap.csv ->
-  // heap-<pour>.csv).
+  // correction, the stress regularisation's interval (steps), a glued base, the damping and
+  // settling time (and a release of the damping), the rows poured at once, the inner radius
+  // of an annular pour (a ridge), the number of pours, print the flank while fed, and write
+  // the particles of every pour (heap.csv -> heap-<pour>.csv).
   auto knob = [](const char* name, double value) { return std::getenv(name) ? std::atof(std::getenv(name)) : value; };
   const double dp = knob("TAMP_HEAP_DP", 0.01);
   const double R_in = knob("TAMP_HEAP_RIN", 0.0);  // > 0: a ridge poured on an annulus (almost plane strain)
@@ -576,6 +576,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   cfg.sph.kernel_correction = knob("TAMP_HEAP_KERNEL_CORRECTION", 0) != 0;
   cfg.sph.alpha = knob("TAMP_HEAP_ALPHA", cfg.sph.alpha);
   cfg.sph.h_factor = knob("TAMP_HEAP_H_FACTOR", cfg.sph.h_factor);
+  cfg.sph.regularise_every = static_cast<int>(knob("TAMP_HEAP_REGULARISE", cfg.sph.regularise_every));
   // Davis's simple-shear friction, tan = sin(phi) cos(psi) / (1 - sin(phi) sin(psi)): 36.2 deg at phi 47, psi 0
   const double sp = std::sin(agg.phi_deg * M_PI / 180.0), psi = agg.psi_deg * M_PI / 180.0;
   const double repose_deg = std::atan(sp * std::cos(psi) / (1.0 - sp * std::sin(psi))) * 180.0 / M_PI;
@@ -588,6 +589,9 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   const bool fed_probe = knob("TAMP_HEAP_FED", 0) != 0;
   const double damping = knob("TAMP_HEAP_DAMPING", 0.0);  // 1/s, mass-proportional, as the lab's settle phases
   const double settle = knob("TAMP_HEAP_SETTLE", 1.5), release = knob("TAMP_HEAP_RELEASE", 0.0);
+  // TAMP_HEAP_GLUED = f: the grains whose centres lie below f spacings are held at rest (a base
+  // of glued grains, as sandpaper or a glued layer in a heap experiment); 0 (default): none.
+  const double glued = knob("TAMP_HEAP_GLUED", 0.0) * dp;
   auto mean_of = [](const std::vector<double>& x) {
     double m = 0;
     for (double f : x) m += f / x.size();
@@ -603,8 +607,12 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
       state = state * 6364136223846793005ull + 1442695040888963407ull;
       return pour == 0 ? 0.0 : static_cast<double>(state >> 11) / 4503599627370496.0 - 1.0;
     };
+    auto glue = [&]() {  // a base of glued grains: every particle whose centre is below `glued` is held at rest
+      if (glued > 0) sim.prescribe_velocity({0.0, 10.0 * W, -1.0, glued}, 0.0, 0.0);
+      return true;
+    };
     for (int row = 1; row < rows; row += per_pour) {
-      sim.advance_to(sim.time() + 0.05 * per_pour);
+      sim.advance_to(sim.time() + 0.05 * per_pour, glue);
       const auto s = tamp::testing::host_state(sim);
       std::vector<double> top(nr, 0.0);
       for (size_t i = 0; i < s.r.size(); ++i) {
@@ -618,20 +626,20 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
     }
     double settled = 0;  // s of the settle already run
     if (fed_probe) {
-      sim.advance_to(sim.time() + 0.05 * per_pour);
+      sim.advance_to(sim.time() + 0.05 * per_pour, glue);
       settled += 0.05 * per_pour;
       const double f = heap_shape(sim, dp, W).flank_deg;
       std::printf("[heap] pour %d: flank %.1f deg while fed\n", pour, f);
       fed_flanks.push_back(f);
     }
     if (release > 0) {
-      sim.advance_to(sim.time() + release - settled);
+      sim.advance_to(sim.time() + release - settled, glue);
       std::printf("[heap] pour %d: flank %.1f deg after %.2f s damped\n", pour, heap_shape(sim, dp, W).flank_deg,
                   release);
       sim.set_damping(0.0);
       settled = release;
     }
-    sim.advance_to(sim.time() + settle - settled);
+    sim.advance_to(sim.time() + settle - settled, glue);
     const HeapShape h = heap_shape(sim, dp, W);
     dump_heap(sim, "TAMP_HEAP_DUMP", pours > 1 ? pour : -1);
     std::printf("[heap] pour %d: %zu particles, height %.3f m, flank %.1f deg (%d bands), fastest particle %.2e m/s\n",

@@ -687,7 +687,7 @@ TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(
           "[.][known-defect][aggregate]") {
   tamp::log::set_level(tamp::log::Level::Quiet);
   auto knob = [](const char* name, double value) { return std::getenv(name) ? std::atof(std::getenv(name)) : value; };
-  const double dp = 0.01, g = 9.81, deg = M_PI / 180.0;
+  const double dp = knob("TAMP_INCLINE_DP", 0.01), g = 9.81, deg = M_PI / 180.0;
   const double R_in = 1.0, L = 1.0, H = knob("TAMP_INCLINE_LAYERS", 8) * dp;
   const double start = knob("TAMP_INCLINE_START", 50.0) * deg, kick = knob("TAMP_INCLINE_KICK", 0.2);
   const double run = knob("TAMP_INCLINE_TIME", 1.5);

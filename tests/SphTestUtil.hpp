@@ -2,6 +2,8 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <functional>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -29,6 +31,23 @@ inline Config column_config(double radius, double height, double spacing) {
   c.bottom = {WallType::Fixed, 0.0};
   c.outer = {WallType::Roller, radius};
   return c;
+}
+
+// A number from the environment (the knobs of the studies in docs/), or the fallback when
+// the variable is not set.
+inline double env_or(const char* name, double fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atof(v) : fallback;
+}
+
+// The on-step callback (Simulation::advance_to) of a base of glued grains: every real particle
+// whose centre lies below `height` (m) is held at rest. None (an empty callback) for height 0.
+inline std::function<bool()> glued_base(Simulation& sim, double height) {
+  if (!(height > 0)) return {};
+  return [&sim, height]() {
+    sim.prescribe_velocity({0.0, 1e3, -1.0, height}, 0.0, 0.0);
+    return true;
+  };
 }
 
 // Host copies of the real particles' positions, velocities and stresses.

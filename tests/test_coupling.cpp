@@ -378,10 +378,7 @@ struct PunchResult { double w, w_exact, P; };
 // at L. Returns the mean settlement of the surface particles under the punch, Boussinesq's
 // w = P (1 - nu^2) / (2 a E) for the load P reached, and P. TAMP_PUNCH_* override the set-up
 // (studies in docs/coupling.md); TAMP_TIE_PROFILE=1 prints the rest phase.
-double env_or(const char* name, double fallback) {
-  const char* v = std::getenv(name);
-  return v ? std::atof(v) : fallback;
-}
+using tamp::testing::env_or;
 
 PunchResult tied_punch(double dp_default) {
   const double a = 0.05, zone = 2 * a, growth = 1.1;

@@ -27,6 +27,8 @@ struct MaterialParams {
                                   // no grain contacts and carries no stress (0 = never)
   double inertia = 1;  // mass scaling: the inertia of the material is this times its mass
                        // (its weight, stiffness and strength are not scaled), >= 1
+  double viscosity = 1;  // its artificial viscosity relative to [sph] alpha and beta; a pair
+                         // takes the mean of its two materials' (kernels/SphSolid.hpp)
 
   // Effects added to Mohr-Coulomb / Tresca (models/Effects.hpp, docs/effects.md); each is
   // off at its default.

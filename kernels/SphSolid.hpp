@@ -307,7 +307,9 @@ struct Acceleration {
         const double mu = p.h * vdotx / (r2 + 0.01 * p.h * p.h);
         const double rhob = rho(b);
         const double cb = wave_speeds(material(b));
-        const double Pi = ring * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
+        // the pair's share of [sph] alpha and beta: the mean of its materials' (1 by default)
+        const double share = 0.5 * (materials(material(i)).viscosity + materials(material(b)).viscosity);
+        const double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
         Trr -= Pi;
         Tzz -= Pi;
         // Heat: each particle of a pair books half of the pair's viscous dissipation. A tie

@@ -60,6 +60,10 @@ const std::vector<ModelKey>& common_material_keys() {
       // scaling"): its inertia times this, its weight and stiffness as they are.
       {"mass_scaling", "", ge_le(1, 100), 1.0, "inertia / mass (weight and stiffness unscaled); 1 = none",
        &MaterialSpec::mass_scaling, false, false},
+      // The material's share of the Monaghan viscosity (docs/sph.md "Artificial viscosity
+      // per material"): a flowing granular charge needs less than the impact's shock.
+      {"viscosity", "", ge_le(0, 10), 1.0, "artificial viscosity / [sph] alpha and beta (pair: the mean); 1 = as [sph]",
+       &MaterialSpec::viscosity, false, false},
   };
   return keys;
 }
@@ -127,6 +131,7 @@ MaterialParams make_material(const MaterialSpec& s) {
   m.bulk_modulus = bulk_from_shear(s.shear_modulus, s.poisson_ratio);
   m.separation_density = s.separation_density;
   m.inertia = s.mass_scaling;
+  m.viscosity = s.viscosity;
   if (d.to_params) d.to_params(s, m);
   if (d.effects) {
     m.crush_pressure = s.crush_pressure;

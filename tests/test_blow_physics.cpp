@@ -214,15 +214,19 @@ TEST_CASE("Wall: pounder dropped onto an elastic layer on a fixed base, energy b
 TEST_CASE("Wall: a cohesionless grain pushed along a fixed base stops after v0^2 / (2 g tan phi) within 5 %",
           "[blow][boundaries][verification]") {
   // One aggregate particle (phi = 47 deg, c = 0) resting on a fixed base, far from the axis
-  // (r = 0.5 m: over the slide the hoop strain stays below 1 %), given a radial speed v0.
+  // (r = 2 m: over the slide the hoop strain stays below 0.25 %), given a radial speed v0.
+  // (Until 2026-12-07 at r = 0.5 m: there the ring's hoop strain, 0.9 % over the slide,
+  // unloads the grain's support and it sinks into its mirror while it slides: +2.4 % with
+  // the deck's alpha 0.5, +6.4 % with the aggregate's 0.1; at 2 m +1.7 / +2.0 %, at 5 m
+  // +0.9 / +0.9 %: the excess is the hoop term's, not the wall's.)
   // The wall's Coulomb friction tan(phi) a_n with a_n = g on average stops it after
   // L = v0^2 / (2 g tan phi). Tolerance 5 %: the grain rocks on its mirror image, so the
   // normal support fluctuates about g, and the cap at stick ends the slide within a step.
-  Config cfg = column_config(0.6, 0.01, 0.01);
+  Config cfg = column_config(2.1, 0.01, 0.01);
   cfg.materials = {tamp::lab::aggregate()};
   cfg.blocks[0].material = "aggregate";
-  cfg.blocks[0].r_min = 0.5;
-  cfg.blocks[0].r_max = 0.51;
+  cfg.blocks[0].r_min = 2.0;
+  cfg.blocks[0].r_max = 2.01;
   cfg.bottom = {WallType::Fixed, 0.0};
   cfg.outer = {WallType::None, 0.0};
   cfg.gravity = 9.81;
@@ -495,32 +499,44 @@ TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air vo
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
-TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and comes to rest, 3 deg steeper it slumps",
+TEST_CASE("Aggregate: a cone of the charge 3 deg flatter than phi stands and comes to rest, 3 deg steeper it slumps",
           "[aggregate]") {
   // A cohesionless slope is in limit equilibrium at beta = phi (infinite-slope analysis;
   // near the free surface of a cone the hoop stress is the intermediate one and does not
-  // change that), so a cone flatter than phi must stand and one steeper must slump. The
-  // particle model loses a little strength at the free surface (a cohesionless particle
-  // there has almost no confinement inside its kernel radius of 3 spacings): measured, a
-  // 42 deg cone stands, 43-44 deg creeps after 1 s, 47 deg and steeper slump. Asserted: the
-  // model's critical slope lies between phi - 5 and phi + 3 deg: the 42 deg cone keeps its
-  // height within 5 % (it settles 2.6 % as the zero-stress charge takes its weight) and every
-  // particle is slower than 1 mm/s after 2 s; the 50 deg cone loses more than 10 % of its
-  // height in 1 s.
+  // change that), so a cone flatter than phi must stand and one steeper must slump. Static
+  // strength needs a static state: the cone is made at zero stress (as a charge is created),
+  // settled under gravity with the lab deck's settle damping (60 1/s for 0.5 s, as every
+  // backfill charge is settled, docs/drop-sequence.md "Stages"), then released undamped.
+  // Measured (10 mm, the deck's aggregate): 42, 44, 45 and 46 deg stand (height -0.6 to
+  // -1.9 %, every particle below 1e-9 m/s), 47 and 50 deg slump (-29 %, -34 %): the model's
+  // critical slope lies between 46 and 47 deg, at phi. Asserted with 3 deg either side of
+  // phi: the 44 deg cone keeps its height within 5 % and every particle is slower than
+  // 1 mm/s 1 s after the release; the 50 deg cone loses more than 10 % of its height.
+  // (Until 2026-12-07 the cone was released at zero stress undamped: its standing then
+  // depended on how the viscosity damped the sudden load, 42 deg stood with alpha 0.5 and
+  // slumped 13 % with the aggregate's 0.1; docs/drop-sequence.md.)
   tamp::log::set_level(tamp::log::Level::Quiet);
   const double dp = 0.01, R0 = 0.3, W = 0.8;
   // the cone at beta (deg) released for `time` s: its shape before and after
+  const double settle = 0.5;  // s
   auto release = [&](double beta, double time) {
     Simulation sim(aggregate_cone(beta, R0, dp, W));
     const HeapShape h0 = heap_shape(sim, dp, W);
-    sim.advance_to(time);
-    if (beta == 42.0) dump_heap(sim, "TAMP_CONE_DUMP");
+    sim.set_damping(60.0);  // the lab deck's settle damping, 1/s: as a backfill charge is settled
+    sim.advance_to(settle);
+    sim.set_damping(0.0);
+    const HeapShape hs = heap_shape(sim, dp, W);
+    std::printf("[heap] %.0f deg cone settled (damped %.1f s): height %.3f m, flank %.1f deg, fastest %.2e m/s\n", beta,
+                settle, hs.height, hs.flank_deg, hs.vmax);
+    sim.advance_to(settle + time);
+    if (beta == 44.0) dump_heap(sim, "TAMP_CONE_DUMP");
     const HeapShape h = heap_shape(sim, dp, W);
     std::printf("[heap] %.0f deg cone: height %.3f -> %.3f m (%+.1f %%), flank %.1f deg, fastest particle %.2e m/s\n",
                 beta, h0.height, h.height, 100 * (h.height / h0.height - 1), h.flank_deg, h.vmax);
     return std::make_pair(h0, h);
   };
-  const auto [h0_stands, stands] = release(42.0, 2.0);
+  if (std::getenv("TAMP_CONE_BETA")) release(env_or("TAMP_CONE_BETA", 42.0), 2.0);  // a study of other slopes
+  const auto [h0_stands, stands] = release(44.0, 1.0);
   CHECK(stands.height > 0.95 * h0_stands.height);
   CHECK(stands.vmax < 1e-3);
   const auto [h0_slumps, slumps] = release(50.0, 1.0);
@@ -538,7 +554,10 @@ TEST_CASE("Aggregate: a cone of the charge 5 deg flatter than phi stands and com
 // stress (docs/drop-sequence.md "After the feed stops, the heap slumps"). On a rough incline
 // (the hidden test "Aggregate: a layer*" below) the never-separating charge stops between 33
 // and 36 deg, and with the deck's separation it accelerates at 30 deg: the flowing layer's
-// sheared basal row dilates to about 1440 kg/m3 and is read as separated.
+// sheared basal row dilates to about 1440 kg/m3 and is read as separated. The figures above
+// are with the deck's viscosity as it was (alpha 0.5 everywhere). Since 2026-12-07 the
+// aggregate's share is 0.2 (alpha 0.1): the layer stops, and five pours stand at 32.1 deg
+// (std 1.4, se 0.6), still 1 deg short of the band, one pour's fastest grain at 94 mm/s.
 // Run it by name: tamp_tests "Aggregate: a heap*".
 TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
           "[.][known-defect][aggregate]") {
@@ -587,7 +606,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   agg.shear_modulus = knob("TAMP_HEAP_G", agg.shear_modulus);  // Pa
   agg.separation_density = knob("TAMP_HEAP_SEPARATION", agg.separation_density);
   cfg.sph.kernel_correction = knob("TAMP_HEAP_KERNEL_CORRECTION", 0) != 0;
-  cfg.sph.alpha = knob("TAMP_HEAP_ALPHA", cfg.sph.alpha);
+  cfg.sph.alpha = knob("TAMP_HEAP_ALPHA", cfg.sph.alpha);  // [sph] alpha: the aggregate's pairs take 0.2 of it
   cfg.sph.h_factor = knob("TAMP_HEAP_H_FACTOR", cfg.sph.h_factor);
   cfg.sph.regularise_every = static_cast<int>(knob("TAMP_HEAP_REGULARISE", cfg.sph.regularise_every));
   const double repose_deg = simple_shear_repose_deg(agg.phi_deg, agg.psi_deg);
@@ -685,11 +704,14 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
 // Asserted, with a margin of 3 deg either side of 36.2 for the discretisation (the heap's
 // tolerance): at 30 deg the middle 0.4 m of the layer is at rest after 1.5 s (mean speed
 // along the base below 1 cm/s); at 40 deg it still flows (above 0.1 m/s, or has run off the
-// middle). Fails as the lab deck is: its layer accelerates at 30 deg, because the sheared
-// basal row dilates below the separation density (passes with TAMP_INCLINE_SEPARATION=0).
+// middle). Until 2026-12-07 it failed as the lab deck was (alpha 0.5): the layer accelerated
+// at 30 deg, because the viscosity dilated the sheared basal row below the separation density.
+// It passes with the aggregate's viscosity share 0.2 (alpha 0.1; docs/sph.md "Artificial
+// viscosity per material"): at rest at 30 deg within 1.25 s, flowing at 40 deg. Hidden for
+// its time (67 s on 2 threads; the CI's 20 minutes have about a minute to spare).
 // Run it by name: tamp_tests "Aggregate: a layer*".
 TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(sin phi) and flows above it",
-          "[.][known-defect][aggregate]") {
+          "[.][long][aggregate]") {
   tamp::log::set_level(tamp::log::Level::Quiet);
   const auto knob = env_or;
   const double dp = knob("TAMP_INCLINE_DP", 0.01), g = 9.81, deg = M_PI / 180.0;
@@ -707,7 +729,7 @@ TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(
     cfg.materials = {tamp::lab::aggregate()};
     MaterialSpec& agg = cfg.materials[0];
     agg.separation_density = knob("TAMP_INCLINE_SEPARATION", agg.separation_density);
-    cfg.sph.alpha = knob("TAMP_INCLINE_ALPHA", cfg.sph.alpha);
+    cfg.sph.alpha = knob("TAMP_INCLINE_ALPHA", cfg.sph.alpha);  // [sph] alpha; the aggregate takes 0.2 of it
     cfg.blocks[0].material = agg.name;
     cfg.blocks[0].r_min = R_in;
     cfg.outer = {WallType::None, 0.0};

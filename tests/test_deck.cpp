@@ -145,6 +145,7 @@ void require_same(const Config& a, const Config& b) {
     CHECK(x.tension_cutoff == y.tension_cutoff);
     CHECK(x.separation_density == y.separation_density);
     CHECK(x.mass_scaling == y.mass_scaling);
+    CHECK(x.viscosity == y.viscosity);
   }
   REQUIRE(a.blocks.size() == b.blocks.size());
   for (std::size_t i = 0; i < a.blocks.size(); ++i) {
@@ -287,6 +288,7 @@ TEST_CASE("Deck: to_toml round trip gives the same Config", "[deck]") {
     m.tension_cutoff = 5;
     m.separation_density = 1000.0 / 0.9;
     m.mass_scaling = 6.08;
+    m.viscosity = 0.2;
     a.materials.push_back(m);
     tamp::MaterialSpec t;
     t.name = "clay";
@@ -407,6 +409,11 @@ TEST_CASE("Deck: out-of-range values are rejected", "[deck]") {
     Parts p;
     p.materials += "mass_scaling = 0.5\n";
     require_error(p.text(), {"materials[0].mass_scaling = 0.5", "1 <= mass_scaling <= 100"});
+  }
+  SECTION("a material's viscosity out of range") {
+    Parts p;
+    p.materials += "viscosity = -0.1\n";
+    require_error(p.text(), {"materials[0].viscosity = -0.1", "0 <= viscosity <= 10"});
   }
   SECTION("mass scaling with elements") {
     Parts p;

@@ -258,6 +258,7 @@ struct Acceleration {
     const double Ra_rr = art_stress(i, 0), Ra_zz = art_stress(i, 1), Ra_rz = art_stress(i, 2);
     const bool Ra_on = p.artificial_stress_epsilon > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = wave_speeds(material(i));
+    const double share_a = materials(material(i)).viscosity;  // a's share of the viscosity
     double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
     double image_ar = 0, image_az = 0, image_wr = 0, image_wz = 0;  // the images' stress pair force: axis, walls
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
@@ -308,7 +309,7 @@ struct Acceleration {
         const double rhob = rho(b);
         const double cb = wave_speeds(material(b));
         // the pair's share of [sph] alpha and beta: the mean of its materials' (1 by default)
-        const double share = 0.5 * (materials(material(i)).viscosity + materials(material(b)).viscosity);
+        const double share = 0.5 * (share_a + materials(material(b)).viscosity);
         const double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
         Trr -= Pi;
         Tzz -= Pi;

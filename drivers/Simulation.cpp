@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
-#include <cstdlib>
 #include <sstream>
 #include <type_traits>
 
@@ -25,7 +24,6 @@ Simulation::Simulation(const Config& config) : config_(config) {
   sph_.gravity = gravity_at(0.0);
   sph_.damping = config_.damping;
   sph_.kernel_correction = config_.sph.kernel_correction ? 1 : 0;
-  if (const char* e = std::getenv("TAMP_EXP_CAP")) sph_.visc_cap = std::atof(e);
   skin_ = config_.sph.neighbour_skin * sph_.h;
   contact_law_.contact_distance = 0.5 * dp;
   contact_law_.penalty_scale = config_.contact.penalty_scale;

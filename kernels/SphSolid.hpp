@@ -37,7 +37,6 @@ struct SphParams {
   double gravity = 0;         // m/s2 in -z
   double damping = 0;         // 1/s
   int kernel_correction = 1;  // first-order gradient correction in the velocity gradient
-  double visc_cap = 0;  // EXPERIMENT
 };
 
 // Loop A: velocity gradient (with the hoop rate), continuity, stress update through the
@@ -311,11 +310,7 @@ struct Acceleration {
         const double cb = wave_speeds(material(b));
         // the pair's share of [sph] alpha and beta: the mean of its materials' (1 by default)
         const double share = 0.5 * (share_a + materials(material(b)).viscosity);
-        double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
-        if (p.visc_cap > 0 && b < first_tie && b < first_image) {
-          const double P_pair = -0.5 * (mb * (Sa_rr + Sa_zz) + pair_stress(b, 0) + pair_stress(b, 1));
-          Pi = math::min(Pi, p.visc_cap * math::max(0.0, P_pair));
-        }
+        const double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
         Trr -= Pi;
         Tzz -= Pi;
         // Heat: each particle of a pair books half of the pair's viscous dissipation. A tie

@@ -689,96 +689,143 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
-// Hidden (known defect, docs/drop-sequence.md "A layer of the charge on a rough incline"):
-// the stopping angle of the discretised charge where the geometry is simple. A layer of the
-// lab deck's aggregate, n spacings thick and 1 m long, lies on a rough base (a fixed wall,
-// and every grain whose centre is below 0.6 spacings held at rest: a glued layer) far from
-// the axis (r = 1-2 m, so that the hoop terms are about 1 %). The incline is a body force:
-// gravity g cos(theta) normal to the base and g sin(theta) along it (+r). Protocol of
-// Pouliquen (1999, Phys. Fluids 11, 542), who measured h_stop(theta) by letting a flowing
-// layer stop: the layer settles (damped, 0.3 s), is set flowing at a steeper angle
-// (TAMP_INCLINE_START, for TAMP_INCLINE_KICK s), then runs undamped at theta. A Mohr-Coulomb
-// layer with psi = 0 flowing in simple shear mobilises tau / sigma_n = sin(phi) on planes
-// parallel to the base (Davis 1968; the heap test above): below atan(sin phi) = 36.2 deg it
-// decelerates at g (sin(phi) cos(theta) - sin(theta)) (1.3 m/s2 at 30 deg) and must stop.
-// Asserted, with a margin of 3 deg either side of 36.2 for the discretisation (the heap's
-// tolerance): at 30 deg the middle 0.4 m of the layer is at rest after 1.5 s (mean speed
-// along the base below 1 cm/s); at 40 deg it still flows (above 0.1 m/s, or has run off the
-// middle). Until 2026-12-07 it failed as the lab deck was (alpha 0.5): the layer accelerated
-// at 30 deg, because the viscosity dilated the sheared basal row below the separation density.
-// It passes with the aggregate's viscosity share 0.2 (alpha 0.1; docs/sph.md "Artificial
+// The incline of the two tests below (docs/drop-sequence.md "A layer of the charge on a
+// rough incline"): a layer of the lab deck's aggregate, `layers` spacings thick and 1 m long,
+// lies on a rough base (a fixed wall, and every grain whose centre is below 0.6 spacings held
+// at rest: a glued layer) far from the axis (r = 1-2 m, so that the hoop terms are about
+// 1 %). The incline is a body force: gravity g cos(theta) normal to the base and g sin(theta)
+// along it (+r). Protocol of Pouliquen (1999, Phys. Fluids 11, 542), who measured
+// h_stop(theta) by letting a flowing layer stop: the layer settles (damped, 0.3 s), is set
+// flowing at a steeper angle (TAMP_INCLINE_START, for TAMP_INCLINE_KICK s), then runs undamped
+// at theta for `run` s, reported every 0.25 s: the middle 0.4 m's mean speed along the base
+// (its glued row left out) and whether any of it is left (it can run off).
+struct InclineReport {
+  double t = 0, middle_v = 0;
+  bool middle_left = true;
+};
+std::vector<InclineReport> incline_layer(double theta_deg, double layers, double run) {
+  const auto knob = env_or;
+  const double dp = knob("TAMP_INCLINE_DP", 0.01), g = 9.81, deg = M_PI / 180.0;
+  const double R_in = 1.0, L = 1.0, H = layers * dp;
+  const double start = knob("TAMP_INCLINE_START", 50.0) * deg, kick = knob("TAMP_INCLINE_KICK", 0.2);
+  const double theta = theta_deg * deg;
+  Config cfg = column_config(R_in + L, H, dp);
+  cfg.materials = {tamp::lab::aggregate()};
+  MaterialSpec& agg = cfg.materials[0];
+  agg.separation_density = knob("TAMP_INCLINE_SEPARATION", agg.separation_density);
+  cfg.sph.alpha = knob("TAMP_INCLINE_ALPHA", cfg.sph.alpha);  // [sph] alpha; the aggregate takes 0.2 of it
+  cfg.blocks[0].material = agg.name;
+  cfg.blocks[0].r_min = R_in;
+  cfg.outer = {WallType::None, 0.0};
+  cfg.gravity = g * std::cos(theta);
+  Simulation sim(cfg);
+  auto body_force = [&](double a_r, double a_z) {  // on every real particle, m/s2
+    const auto reals = std::make_pair(0, sim.particle_count());
+    Kokkos::deep_copy(Kokkos::subview(sim.particles().a_ext, reals, 0), a_r);
+    Kokkos::deep_copy(Kokkos::subview(sim.particles().a_ext, reals, 1), a_z);
+  };
+  const auto glue = glued_base(sim, 0.6 * dp);
+  std::vector<InclineReport> trace;
+  auto report = [&](const char* phase) {
+    const auto s = tamp::testing::host_state(sim);
+    double v = 0, top = 0, vmax = 0;
+    int n = 0;
+    for (size_t i = 0; i < s.r.size(); ++i) {
+      vmax = std::max(vmax, std::hypot(s.vr[i], s.vz[i]));
+      if (s.r[i] < R_in + 0.3 || s.r[i] > R_in + 0.7) continue;
+      top = std::max(top, s.z[i] + 0.5 * dp);
+      if (s.z[i] < 0.6 * dp) continue;
+      v += s.vr[i];
+      ++n;
+    }
+    InclineReport r;
+    r.t = sim.time();
+    r.middle_v = n ? v / n : 0.0;
+    r.middle_left = n > 0;
+    trace.push_back(r);
+    std::printf("[incline] theta %.1f deg, %.0f mm, %s t = %.2f s: middle mean v_r %.4f m/s, thickness %.3f m, fastest "
+                "%.3f m/s\n",
+                theta_deg, 1e3 * H, phase, sim.time(), r.middle_v, top, vmax);
+  };
+  sim.set_damping(20.0);
+  sim.advance_to(0.3, glue);
+  sim.set_damping(0.0);
+  body_force(g * std::sin(start), g * (std::cos(theta) - std::cos(start)));  // normal: g cos(start) in all
+  sim.advance_to(0.3 + kick, glue);
+  report("kicked");
+  body_force(g * std::sin(theta), 0.0);
+  for (double t = 0.25; t <= run + 1e-9; t += 0.25) {
+    sim.advance_to(0.3 + kick + t, glue);
+    report("running");
+  }
+  dump_heap(sim, "TAMP_INCLINE_DUMP", static_cast<int>(std::lround(theta_deg)));
+  return trace;
+}
+
+// Hidden for its time: the stopping angle of the discretised charge where the geometry is
+// simple (the incline above, 8 spacings = 8 cm at 10 mm). A Mohr-Coulomb layer with psi = 0
+// flowing in simple shear mobilises tau / sigma_n = sin(phi) on planes parallel to the base
+// (Davis 1968; the heap test above): below atan(sin phi) = 36.2 deg it decelerates at
+// g (sin(phi) cos(theta) - sin(theta)) (1.3 m/s2 at 30 deg) and must stop. Asserted, with a
+// margin of 3 deg either side of 36.2 for the discretisation (the heap's tolerance): at
+// 30 deg the middle 0.4 m of the layer is at rest after 1.5 s (mean speed along the base
+// below 1 cm/s); at 40 deg it still flows (above 0.1 m/s, or has run off the middle). Until
+// 2026-12-07 it failed as the lab deck was (alpha 0.5): the layer accelerated at 30 deg,
+// because the viscosity dilated the sheared basal row below the separation density. It
+// passes with the aggregate's viscosity share 0.2 (alpha 0.1; docs/sph.md "Artificial
 // viscosity per material"): at rest at 30 deg within 1.25 s, flowing at 40 deg. Hidden for
-// its time (67 s on 2 threads; the CI's 20 minutes have about a minute to spare).
+// its time (67 s on 2 threads; the CI's 20 minutes have about half a minute to spare).
+// Knobs: TAMP_INCLINE_THETA (a list of angles), TAMP_INCLINE_LAYERS, TAMP_INCLINE_TIME, and
+// those of incline_layer.
 // Run it by name: tamp_tests "Aggregate: a layer*".
 TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(sin phi) and flows above it",
           "[.][long][aggregate]") {
   tamp::log::set_level(tamp::log::Level::Quiet);
-  const auto knob = env_or;
-  const double dp = knob("TAMP_INCLINE_DP", 0.01), g = 9.81, deg = M_PI / 180.0;
-  const double R_in = 1.0, L = 1.0, H = knob("TAMP_INCLINE_LAYERS", 8) * dp;
-  const double start = knob("TAMP_INCLINE_START", 50.0) * deg, kick = knob("TAMP_INCLINE_KICK", 0.2);
-  const double run = knob("TAMP_INCLINE_TIME", 1.5);
+  const double layers = env_or("TAMP_INCLINE_LAYERS", 8), run = env_or("TAMP_INCLINE_TIME", 1.5);
   std::vector<double> angles;
   {
     std::stringstream ss(std::getenv("TAMP_INCLINE_THETA") ? std::getenv("TAMP_INCLINE_THETA") : "30,40");
     for (std::string item; std::getline(ss, item, ',');) angles.push_back(std::atof(item.c_str()));
   }
+  const MaterialSpec agg = tamp::lab::aggregate();
+  const double repose_deg = simple_shear_repose_deg(agg.phi_deg, agg.psi_deg);
   for (const double theta_deg : angles) {
-    const double theta = theta_deg * deg;
-    Config cfg = column_config(R_in + L, H, dp);
-    cfg.materials = {tamp::lab::aggregate()};
-    MaterialSpec& agg = cfg.materials[0];
-    agg.separation_density = knob("TAMP_INCLINE_SEPARATION", agg.separation_density);
-    cfg.sph.alpha = knob("TAMP_INCLINE_ALPHA", cfg.sph.alpha);  // [sph] alpha; the aggregate takes 0.2 of it
-    cfg.blocks[0].material = agg.name;
-    cfg.blocks[0].r_min = R_in;
-    cfg.outer = {WallType::None, 0.0};
-    cfg.gravity = g * std::cos(theta);
-    Simulation sim(cfg);
-    auto body_force = [&](double a_r, double a_z) {  // on every real particle, m/s2
-      const auto reals = std::make_pair(0, sim.particle_count());
-      Kokkos::deep_copy(Kokkos::subview(sim.particles().a_ext, reals, 0), a_r);
-      Kokkos::deep_copy(Kokkos::subview(sim.particles().a_ext, reals, 1), a_z);
-    };
-    const auto glue = glued_base(sim, 0.6 * dp);
-    double middle_v = 0;  // the last report's mean speed along the base
-    bool middle_left = true;  // false: the middle has run off (only its glued row is left)
-    auto report = [&](const char* phase) {  // the middle 0.4 m: mean speed along the base, thickness
-      const auto s = tamp::testing::host_state(sim);
-      double v = 0, top = 0, vmax = 0;
-      int n = 0;
-      for (size_t i = 0; i < s.r.size(); ++i) {
-        vmax = std::max(vmax, std::hypot(s.vr[i], s.vz[i]));
-        if (s.r[i] < R_in + 0.3 || s.r[i] > R_in + 0.7) continue;
-        top = std::max(top, s.z[i] + 0.5 * dp);
-        if (s.z[i] < 0.6 * dp) continue;
-        v += s.vr[i];
-        ++n;
-      }
-      middle_v = n ? v / n : 0.0;
-      middle_left = n > 0;
-      std::printf("[incline] theta %.1f deg, %s t = %.2f s: middle mean v_r %.4f m/s, thickness %.3f m, fastest %.3f m/s\n",
-                  theta_deg, phase, sim.time(), middle_v, top, vmax);
-    };
-    sim.set_damping(20.0);
-    sim.advance_to(0.3, glue);
-    sim.set_damping(0.0);
-    body_force(g * std::sin(start), g * (std::cos(theta) - std::cos(start)));  // normal: g cos(start) in all
-    sim.advance_to(0.3 + kick, glue);
-    report("kicked");
-    body_force(g * std::sin(theta), 0.0);
-    for (double t = 0.25; t <= run + 1e-9; t += 0.25) {
-      sim.advance_to(0.3 + kick + t, glue);
-      report("running");
-    }
-    dump_heap(sim, "TAMP_INCLINE_DUMP", static_cast<int>(std::lround(theta_deg)));
-    const double repose_deg = simple_shear_repose_deg(agg.phi_deg, agg.psi_deg);
+    const auto trace = incline_layer(theta_deg, layers, run);
+    const InclineReport& last = trace.back();
     if (theta_deg < repose_deg - 3.0) {
-      CHECK(middle_left);
-      CHECK(std::fabs(middle_v) < 0.01);
+      CHECK(last.middle_left);
+      CHECK(std::fabs(last.middle_v) < 0.01);
     } else if (theta_deg > repose_deg + 3.0) {
-      CHECK((!middle_left || middle_v > 0.1));
+      CHECK((!last.middle_left || last.middle_v > 0.1));
     }
   }
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
+// Hidden (known defect, docs/drop-sequence.md "Thin layers flow where thick ones stop"): the
+// same charge in a layer 3 cm thick (3 spacings at 10 mm, the lowest glued) must stop at
+// 30 deg as the 8 cm layer does: Mohr-Coulomb has no length scale, so the stopping angle
+// does not depend on the thickness (and real layers stop at steeper angles when thin,
+// Pouliquen 1999, not shallower). Asserted: from the kick's speed (about 0.55 m/s) the
+// middle decelerates (slower 0.25 s after the kick than at it) and has nearly stopped (below
+// 5 cm/s) 0.5 s after the kick; at 1.3 m/s2 of deceleration it would stop within 0.45 s, and
+// the 8 cm layer does both (0.26 m/s at 0.25 s, 0.012 at 0.5 s). Later reports are not
+// asserted: a layer that ran on piles up in the middle (the speed falls for that reason).
+// Measured 2026-12-07: it accelerates, 0.55 -> 0.70 -> 0.87 m/s, and piles up 0.75 s after the
+// kick (at 5 mm the same 3 cm: 0.61 -> 0.66 -> 0.62, stopping at 1.0 s); it floats
+// off its glued row, which dilates to 1400 kg/m3 and separates, lifted by the viscosity's
+// push on the pairs that approach as the layer slides over the base's grains. The heap's
+// avalanches are such thin layers, which is where the poured heap's missing degrees are
+// looked for. With the aggregate's alpha at 0.02 (TAMP_INCLINE_ALPHA=0.1) it decelerates,
+// 0.63 -> 0.41 -> 0.07 m/s, still short of the second assertion.
+// Run it by name: tamp_tests "Aggregate: a thin layer*".
+TEST_CASE("Aggregate: a thin layer of the charge (3 cm) on a rough incline stops at 30 deg, as a thick one does",
+          "[.][known-defect][aggregate]") {
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const auto trace = incline_layer(30.0, 3, 0.5);
+  REQUIRE(trace.size() == 3);  // kicked, then 0.25 and 0.5 s after the kick
+  CHECK(trace[1].middle_v < trace[0].middle_v);
+  CHECK(trace[2].middle_left);
+  CHECK(std::fabs(trace[2].middle_v) < 0.05);
   tamp::log::set_level(tamp::log::Level::Info);
 }

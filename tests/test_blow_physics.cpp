@@ -700,7 +700,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
 // at theta for `run` s, reported every 0.25 s: the middle 0.4 m's mean speed along the base
 // (its glued row left out) and whether any of it is left (it can run off).
 struct InclineReport {
-  double t = 0, middle_v = 0;
+  double middle_v = 0;
   bool middle_left = true;
 };
 std::vector<InclineReport> incline_layer(double theta_deg, double layers, double run) {
@@ -739,7 +739,6 @@ std::vector<InclineReport> incline_layer(double theta_deg, double layers, double
       ++n;
     }
     InclineReport r;
-    r.t = sim.time();
     r.middle_v = n ? v / n : 0.0;
     r.middle_left = n > 0;
     trace.push_back(r);

@@ -21,8 +21,10 @@ inline MaterialSpec clay(const std::string& model = "tresca") {
 }
 
 // Crushed basalt 5-25 mm, the backfill: cohesionless Mohr-Coulomb, phi = 47 deg, psi = 0,
-// G = 6.86 MPa, nu = 0.2, unit weight 18 kN/m3, grains separate below 1526 kg/m3
-// (examples/lab-test.toml), its artificial viscosity a fifth of the others'.
+// G = 6.86 MPa, nu = 0.2, unit weight 18 kN/m3, grains separate below 1526 kg/m3 and
+// compact plastically from there (effect (a): 4.9 kPa at the loosest packing, 20 kPa at the
+// poured density, air voids 0.05; examples/lab-test.toml), its artificial viscosity a fifth
+// of the others'.
 inline MaterialSpec aggregate() {
   MaterialSpec m;
   m.name = "aggregate";
@@ -32,6 +34,9 @@ inline MaterialSpec aggregate() {
   m.poisson_ratio = 0.2;
   m.phi_deg = 47.0;
   m.separation_density = 1526.0;
+  m.crush_pressure = 20.0e3;   // Pa
+  m.crush_hardening = 82.0e3;  // Pa
+  m.air_voids = 0.05;
   m.viscosity = 0.2;  // alpha 0.1 of [sph] 0.5 (examples/lab-test.toml)
   return m;
 }

@@ -151,7 +151,7 @@ struct StrainRateAndStress {
     // blows of the lab test, then NaN). Soil volume changes stay far inside these bounds
     // (compaction: at most the air voids, ~15 %).
     const double rho0 = m.density;
-    const double rho_new = math::min(1.5 * rho0, math::max(0.7 * rho0, rho(a) * math::exp(-div * dt)));
+    double rho_new = math::min(1.5 * rho0, math::max(0.7 * rho0, rho(a) * math::exp(-div * dt)));
     // Separated grains: a granular material looser than its loosest packing has no grain
     // contacts and carries no stress (Dunatunga & Kamrin 2015, JFM 779: the "disconnected"
     // phase below the critical packing density). Without this, a grain dilated to 0.7 rho_0
@@ -159,12 +159,21 @@ struct StrainRateAndStress {
     // neighbours 2.5-3.5 spacings away through the kernel's tail, held the pounder up (a
     // sparse skeleton). Its elastic energy is released into the internal energy's
     // dissipated part: the internal energy (the work done) is unchanged.
+    // A separated grain keeps its loosest packing: its density is held at the separation
+    // density, and it takes load again at its first compression. One particle is one grain;
+    // a grain that leaves the surface (a splash, a grain sliding down a heap's flank) sees
+    // its neighbours only on one side, and the truncated kernel's spurious expansion took its
+    // continuity density down to the floor (0.7 rho_0), so that on landing it had to be
+    // compressed by a fifth, stress-free, before it touched anything: it slid on (the poured
+    // heap's moving grains, docs/drop-sequence.md). The price: a uniformly dilated cloud of
+    // grains also reconnects at its first compression, not back at its loosest packing.
     // A grain without contacts keeps no packing history but its density: its compaction
     // (log volumetric strain from the placed density, compression positive) is set from
     // it, so that a charge loosened by flowing can be compacted again (effect (a); the
     // hardening variable of Cam-Clay likewise) instead of having spent its air voids once.
     if (m.separation_density > 0.0 && rho_new < m.separation_density) {
       for (int c = 0; c < 4; ++c) s[c] = 0.0;
+      rho_new = m.separation_density;
       eps_v = math::log(rho_new / rho0);
     }
     compaction(a) = eps_v;

@@ -365,19 +365,22 @@ bool in_column_interior(const tamp::ParticleSnapshot& s, size_t i, double lambda
 
 }  // namespace
 
-TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stress, and take load again once "
-          "compacted back to it", "[aggregate]") {
+TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stress and keep it, and take load "
+          "again at their first compression", "[aggregate]") {
   // Uniaxial strain imposed on every particle (v_z = rate * z0 row by row, v_r = 0; fixed
   // base, roller side): a homogeneous stretch lambda = 1 + rate t, so that, in the bulk,
   // continuity gives rho = rho_0 / lambda and the hypoelastic update sigma_zz = M ln lambda,
   // sigma_rr = sigma_tt = (K - 2G/3) ln lambda (M = K + 4G/3). Below the separation density
-  // rho_c = 0.9 rho_0 (lambda_c = 1 / 0.9) the stress is zero; stretched to lambda = 1.25
-  // and compressed back to 1.0, the stress stays zero until rho is back at rho_c, then
-  // grows as sigma_zz = M ln(lambda / lambda_c). The material is elastic (a Mohr-Coulomb
+  // rho_c = 0.9 rho_0 (lambda_c = 1 / 0.9) the stress is zero and the density is held at
+  // rho_c (a separated grain keeps its loosest packing, kernels/SphSolid.hpp); stretched to
+  // lambda = 1.25 and compressed back, the grains reconnect at once (lambda_r = 1.25, rho =
+  // rho_c) and then rho = rho_c lambda_r / lambda, sigma_zz = M ln(lambda / lambda_r).
+  // (Until 2026-12-07 the density followed the stretch down and the stress stayed zero until
+  // rho was back at rho_c: docs/drop-sequence.md.) The material is elastic (a Mohr-Coulomb
   // charge would be stress-free in tension anyway) so that the rule is what is seen.
   // Tolerance 1 % of M ln(lambda) where stressed (the strain increments are summed with
-  // the rate of each step, first order in rate dt = 3e-5) and 1e-9 Pa where separated;
-  // the interior rows only (the top rows' kernel is truncated).
+  // the rate of each step, first order in rate dt = 3e-5), 2e-3 on the density (the same),
+  // and 1e-9 Pa where separated; the interior rows only (the top rows' kernel is truncated).
   tamp::log::set_level(tamp::log::Level::Quiet);
   const double dp = 0.01, R = 0.05, L = 0.12, rate = 1.0;  // m, m, m, 1/s
   Config cfg = column_config(R, L, dp);
@@ -386,6 +389,7 @@ TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stre
   agg.model = "elastic";
   agg.name = "clay";  // the column's block material
   agg.separation_density = 0.9 * agg.density;
+  agg.crush_pressure = 0;  // no compaction: the separation rule alone
   cfg.materials = {agg};
   Simulation sim(cfg);
   const auto& m = sim.materials()[0];
@@ -394,8 +398,9 @@ TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stre
   // every row moves at rate * its height at lambda = 1 (sign -1: compression)
   auto impose = [&](double lambda, double sign) { impose_uniaxial_strain(sim, rows, dp, sign * rate, lambda); };
   // interior particles (initial rows 3-6): worst relative error of sigma_zz, sigma_rr
-  // against the expected values, and the mean density over rho_0
-  auto check = [&](double lambda, double lambda_zero, bool separated) {
+  // against the expected values (zero strain at lambda_zero), and the mean density over
+  // rho_0 against rho_expected
+  auto check = [&](double lambda, double lambda_zero, bool separated, double rho_expected) {
     const tamp::ParticleSnapshot s = sim.snapshot();
     double worst = 0, rho = 0;
     int n = 0;
@@ -413,21 +418,21 @@ TEST_CASE("Aggregate: grains stretched below their loosest packing carry no stre
     }
     REQUIRE(n > 0);
     std::printf("[separation] lambda %.3f: rho/rho_0 %.4f (expected %.4f), %s %.2e\n", lambda, rho / n,
-                1.0 / lambda, separated ? "largest |stress| Pa" : "worst relative stress error", worst);
-    CHECK(rho / n == Approx(1.0 / lambda).epsilon(2e-3));
+                rho_expected, separated ? "largest |stress| Pa" : "worst relative stress error", worst);
+    CHECK(rho / n == Approx(rho_expected).epsilon(2e-3));
     return worst;
   };
   impose(1.0, +1.0);
-  const double lambda_c = 1.0 / 0.9;
   sim.advance_to(0.08);  // lambda 1.08: stretched, still in contact
-  CHECK(check(1.08, 1.0, false) < 0.01);
-  sim.advance_to(0.25);  // lambda 1.25: separated (rho 0.8 rho_0)
-  CHECK(check(1.25, 1.0, true) < 1e-9);
+  CHECK(check(1.08, 1.0, false, 1.0 / 1.08) < 0.01);
+  sim.advance_to(0.25);  // lambda 1.25: separated, held at rho_c
+  CHECK(check(1.25, 1.0, true, 0.9) < 1e-9);
   impose(1.25, -1.0);
-  sim.advance_to(0.25 + 0.10);  // lambda 1.15: compressed, still looser than rho_c
-  CHECK(check(1.15, 1.0, true) < 1e-9);
-  sim.advance_to(0.25 + 0.25);  // lambda 1.0: back in contact from lambda_c on
-  CHECK(check(1.0, lambda_c, false) < 0.01);
+  const double lambda_r = 1.25;  // reconnected at the first compression
+  sim.advance_to(0.25 + 0.10);  // lambda 1.15
+  CHECK(check(1.15, lambda_r, false, 0.9 * lambda_r / 1.15) < 0.01);
+  sim.advance_to(0.25 + 0.25);  // lambda 1.0
+  CHECK(check(1.0, lambda_r, false, 0.9 * lambda_r / 1.0) < 0.01);
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
@@ -436,17 +441,19 @@ TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air vo
   // The compaction cap (effect (a), docs/effects.md) on a separating material, in the
   // uniaxial strain of the test above: p_c0 = 20 kPa, H = 0, n_a = 0.05, separation at
   // rho_c = 0.9 rho_0. Mean pressure p = -(s_rr + s_zz + s_tt) / 3; continuity gives
-  // rho = rho_0 / lambda. Beyond the air voids the cap is spent and p = K (ln(rho/rho_0) - n_a)
+  // rho = rho_0 / lambda until the grains separate, and a separated grain is held at rho_c
+  // (the test above). Beyond the air voids the cap is spent and p = K (ln(rho/rho_0) - n_a)
   // (log volumetric strain = compaction + p / K). A grain that separates keeps no packing
-  // history but its density (compaction = ln(rho / rho_0) < 0), so compressed back it
+  // history but its density (compaction = ln(rho_c / rho_0) < 0), so compressed back it
   // compacts on the cap again, and its densest packing is rho_0 e^n_a whatever its history.
   //   1. compressed to lambda = 0.93: p = K (ln(1/0.93) - n_a), about 207 kPa;
-  //   2. stretched to lambda = 1.25: separated, p = 0;
-  //   3. compressed back to lambda = 0.96: reconnected at lambda_c = 1/0.9 with compaction
-  //      ln 0.9 = -0.105, so its air voids are 0.155 again, more than the log strain 0.146
-  //      since: p = p_c0 on the cap (if the voids spent in 1. stayed spent, the grain would
-  //      load elastically from lambda_c: p = K ln(lambda_c / 0.96) = 1.34 MPa, 67 p_c0);
-  //   4. compressed to lambda = 0.90: the voids spent again, p = K (ln(1/0.9) - n_a).
+  //   2. stretched to lambda = 1.25: separated, p = 0, rho = rho_c;
+  //   3. compressed back to lambda = 1.10: reconnected at once (lambda_r = 1.25) with
+  //      compaction ln 0.9 = -0.105, so its air voids are 0.155 again, more than the log
+  //      strain ln(1.25 / 1.10) = 0.128 since: p = p_c0 on the cap (if the voids spent in 1.
+  //      stayed spent, the grain would load elastically: p = K 0.128 = 59 p_c0);
+  //   4. compressed to lambda = 0.90: rho = rho_c lambda_r / 0.90 = 1.25 rho_0, the voids
+  //      spent again, p = K (ln 1.25 - n_a).
   // Tolerances: 1 % of p where p is elastic beyond the cap (first order in the step's strain
   // increment, as above), 2 % of p_c0 on the cap, 1e-9 Pa separated; interior rows only.
   // The shear strength is made unreachable (c = 1 GPa) so that only the cap acts.
@@ -460,6 +467,7 @@ TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air vo
   agg.cohesion = 1e9;
   agg.separation_density = 0.9 * agg.density;
   agg.crush_pressure = pc0;
+  agg.crush_hardening = 0;
   agg.air_voids = na;
   cfg.materials = {agg};
   Simulation sim(cfg);
@@ -467,7 +475,7 @@ TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air vo
   const int rows = static_cast<int>(std::lround(L / dp));
   auto impose = [&](double lambda, double sign) { impose_uniaxial_strain(sim, rows, dp, sign * rate, lambda); };
   // mean pressure and density of the interior particles (initial rows 3-6)
-  auto mean_p = [&](double lambda) {
+  auto mean_p = [&](double lambda, double rho_expected) {
     const tamp::ParticleSnapshot s = sim.snapshot();
     double p = 0, rho = 0;
     int n = 0;
@@ -481,21 +489,22 @@ TEST_CASE("Aggregate: a charge loosened below its loosest packing has its air vo
     p /= n;
     rho /= n;
     std::printf("[recompaction] lambda %.3f: rho/rho_0 %.4f, p %.1f Pa\n", lambda, rho / rho0, p);
-    CHECK(rho / rho0 == Approx(1.0 / lambda).epsilon(2e-3));
+    CHECK(rho / rho0 == Approx(rho_expected).epsilon(2e-3));
     return p;
   };
   impose(1.0, -1.0);
   sim.advance_to(0.07);  // lambda 0.93
   const double p1 = K * (std::log(1.0 / 0.93) - na);
-  CHECK(mean_p(0.93) == Approx(p1).epsilon(0.01));
+  CHECK(mean_p(0.93, 1.0 / 0.93) == Approx(p1).epsilon(0.01));
   impose(0.93, +1.0);
   sim.advance_to(0.07 + 0.32);  // lambda 1.25
-  CHECK(std::fabs(mean_p(1.25)) < 1e-9);
+  CHECK(std::fabs(mean_p(1.25, 0.9)) < 1e-9);
   impose(1.25, -1.0);
-  sim.advance_to(0.07 + 0.32 + 0.29);  // lambda 0.96
-  CHECK(mean_p(0.96) == Approx(pc0).margin(0.02 * pc0));
+  const double lambda_r = 1.25;  // reconnected at the first compression
+  sim.advance_to(0.07 + 0.32 + 0.15);  // lambda 1.10
+  CHECK(mean_p(1.10, 0.9 * lambda_r / 1.10) == Approx(pc0).margin(0.02 * pc0));
   sim.advance_to(0.07 + 0.32 + 0.35);  // lambda 0.90
-  CHECK(mean_p(0.90) == Approx(K * (std::log(1.0 / 0.90) - na)).epsilon(0.01));
+  CHECK(mean_p(0.90, 0.9 * lambda_r / 0.90) == Approx(K * (std::log(0.9 * lambda_r / 0.90) - na)).epsilon(0.01));
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
@@ -605,6 +614,9 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   agg.cohesion = knob("TAMP_HEAP_C", agg.cohesion);
   agg.shear_modulus = knob("TAMP_HEAP_G", agg.shear_modulus);  // Pa
   agg.separation_density = knob("TAMP_HEAP_SEPARATION", agg.separation_density);
+  agg.crush_pressure = knob("TAMP_HEAP_CRUSH", agg.crush_pressure);  // Pa, effect (a) (docs/effects.md)
+  agg.crush_hardening = knob("TAMP_HEAP_CRUSH_HARDENING", agg.crush_hardening);  // Pa
+  agg.air_voids = knob("TAMP_HEAP_AIR_VOIDS", agg.air_voids);
   cfg.sph.kernel_correction = knob("TAMP_HEAP_KERNEL_CORRECTION", 0) != 0;
   cfg.sph.alpha = knob("TAMP_HEAP_ALPHA", cfg.sph.alpha);  // [sph] alpha: the aggregate's pairs take 0.2 of it
   cfg.sph.h_factor = knob("TAMP_HEAP_H_FACTOR", cfg.sph.h_factor);

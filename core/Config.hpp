@@ -50,6 +50,7 @@ struct MaterialSpec {
   double separation_density = 0;  // kg/m3, below it the grains carry no stress (0 = never)
   double mass_scaling = 1;        // inertia / mass (weight not scaled), >= 1 (docs/models.md "Mass scaling")
   double viscosity = 1;           // artificial viscosity relative to [sph] alpha, beta (docs/sph.md)
+  double viscosity_head_on = 0;   // 0..1: the viscosity on a pair's head-on approach only (docs/sph.md)
   // effects (models/Effects.hpp, docs/effects.md); defaults = off
   double crush_pressure = 0;      // Pa, compaction starts above this mean pressure
   double crush_hardening = 0;     // Pa per unit compaction strain

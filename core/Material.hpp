@@ -29,6 +29,9 @@ struct MaterialParams {
                        // (its weight, stiffness and strength are not scaled), >= 1
   double viscosity = 1;  // its artificial viscosity relative to [sph] alpha and beta; a pair
                          // takes the mean of its two materials' (kernels/SphSolid.hpp)
+  double viscosity_head_on = 0;  // s in [0, 1]: a pair's viscosity times 1 - s (1 - cos), cos the
+                                 // cosine between its relative velocity and its line of centres
+                                 // (s the mean of its two materials'; docs/sph.md "Head-on viscosity")
 
   // Effects added to Mohr-Coulomb / Tresca (models/Effects.hpp, docs/effects.md); each is
   // off at its default.

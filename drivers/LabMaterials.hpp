@@ -38,6 +38,7 @@ inline MaterialSpec aggregate() {
   m.crush_hardening = 82.0e3;  // Pa
   m.air_voids = 0.05;
   m.viscosity = 0.2;  // alpha 0.1 of [sph] 0.5 (examples/lab-test.toml)
+  m.viscosity_head_on = 1.0;  // grains sliding past each other are not pushed apart (as the deck)
   return m;
 }
 

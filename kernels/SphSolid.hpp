@@ -268,6 +268,7 @@ struct Acceleration {
     const bool Ra_on = p.artificial_stress_epsilon > 0 && (Ra_rr != 0 || Ra_zz != 0 || Ra_rz != 0);
     const double ca = wave_speeds(material(i));
     const double share_a = materials(material(i)).viscosity;  // a's share of the viscosity
+    const double head_on_a = materials(material(i)).viscosity_head_on;
     double ar = 0, az = 0, heat = 0, wr = 0, wz = 0, sr = 0, sz = 0;
     double image_ar = 0, image_az = 0, image_wr = 0, image_wz = 0;  // the images' stress pair force: axis, walls
     for (int k = offsets(i); k < offsets(i + 1); ++k) {
@@ -319,7 +320,15 @@ struct Acceleration {
         const double cb = wave_speeds(material(b));
         // the pair's share of [sph] alpha and beta: the mean of its materials' (1 by default)
         const double share = 0.5 * (share_a + materials(material(b)).viscosity);
-        const double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
+        double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
+        // Head-on viscosity (docs/sph.md): grains that slide past each other are not pushed
+        // apart, grains that collide are damped; the weight 1 - s (1 - cos), cos in (0, 1]
+        // the cosine between -v_ab and x_ab (approaching: v_ab . x_ab < 0, so neither is zero).
+        const double head_on = 0.5 * (head_on_a + materials(material(b)).viscosity_head_on);
+        if (head_on > 0) {
+          const double cos = -vdotx / math::sqrt((dvr * dvr + dvz * dvz) * r2);
+          Pi *= 1.0 - head_on * (1.0 - cos);
+        }
         Trr -= Pi;
         Tzz -= Pi;
         // Heat: each particle of a pair books half of the pair's viscous dissipation. A tie

@@ -64,6 +64,11 @@ const std::vector<ModelKey>& common_material_keys() {
       // per material"): a flowing granular charge needs less than the impact's shock.
       {"viscosity", "", ge_le(0, 10), 1.0, "artificial viscosity / [sph] alpha and beta (pair: the mean); 1 = as [sph]",
        &MaterialSpec::viscosity, false, false},
+      // Grains that slide past each other are not pushed apart (docs/sph.md "Head-on
+      // viscosity"): the viscosity weighted by the head-on part of each pair's approach.
+      {"viscosity_head_on", "", ge_le(0, 1), 0.0,
+       "0..1: the viscosity on the head-on part of a pair's approach only (pair: the mean); 0 = Monaghan's",
+       &MaterialSpec::viscosity_head_on, false, false},
   };
   return keys;
 }
@@ -132,6 +137,7 @@ MaterialParams make_material(const MaterialSpec& s) {
   m.separation_density = s.separation_density;
   m.inertia = s.mass_scaling;
   m.viscosity = s.viscosity;
+  m.viscosity_head_on = s.viscosity_head_on;
   if (d.to_params) d.to_params(s, m);
   if (d.effects) {
     m.crush_pressure = s.crush_pressure;

@@ -146,6 +146,7 @@ void require_same(const Config& a, const Config& b) {
     CHECK(x.separation_density == y.separation_density);
     CHECK(x.mass_scaling == y.mass_scaling);
     CHECK(x.viscosity == y.viscosity);
+    CHECK(x.viscosity_head_on == y.viscosity_head_on);
   }
   REQUIRE(a.blocks.size() == b.blocks.size());
   for (std::size_t i = 0; i < a.blocks.size(); ++i) {
@@ -289,6 +290,7 @@ TEST_CASE("Deck: to_toml round trip gives the same Config", "[deck]") {
     m.separation_density = 1000.0 / 0.9;
     m.mass_scaling = 6.08;
     m.viscosity = 0.2;
+    m.viscosity_head_on = 0.75;
     a.materials.push_back(m);
     tamp::MaterialSpec t;
     t.name = "clay";

@@ -322,12 +322,12 @@ struct Acceleration {
         const double share = 0.5 * (share_a + materials(material(b)).viscosity);
         double Pi = ring * share * (-p.alpha * 0.5 * (ca + cb) * mu + p.beta * mu * mu) / (0.5 * (rhoa + rhob));
         // Head-on viscosity (docs/sph.md): grains that slide past each other are not pushed
-        // apart, grains that collide are damped; the weight 1 - s (1 - cos), cos in (0, 1]
+        // apart, grains that collide are damped; the weight 1 - s (1 - cos g), cos g in (0, 1]
         // the cosine between -v_ab and x_ab (approaching: v_ab . x_ab < 0, so neither is zero).
         const double head_on = 0.5 * (head_on_a + materials(material(b)).viscosity_head_on);
         if (head_on > 0) {
-          const double cos = -vdotx / math::sqrt((dvr * dvr + dvz * dvz) * r2);
-          Pi *= 1.0 - head_on * (1.0 - cos);
+          const double cos_g = -vdotx / math::sqrt((dvr * dvr + dvz * dvz) * r2);
+          Pi *= 1.0 - head_on * (1.0 - cos_g);
         }
         Trr -= Pi;
         Tzz -= Pi;

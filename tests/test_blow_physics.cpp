@@ -553,7 +553,7 @@ TEST_CASE("Aggregate: a cone of the charge 3 deg flatter than phi stands and com
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
-// Hidden (known defect, docs/drop-sequence.md "The aggregate as a poured material"): poured
+// Hidden for its time (docs/drop-sequence.md "The aggregate as a poured material"); the history: poured
 // with the grains separating below 1526 kg/m3, five pours stand at 28.3 deg (sample std 3.2,
 // standard error 1.4) at 10 mm, 8 deg below the 36.2 deg a non-dilatant phi = 47 charge
 // should reach, and their separated surface grains still slide (10-27 mm/s). Never
@@ -571,9 +571,17 @@ TEST_CASE("Aggregate: a cone of the charge 3 deg flatter than phi stands and com
 // (2026-12-07, twenty-second session), every pour comes to rest (ten pours: fastest grain
 // 0.09 mm/s): the rest half passes. The angle does not: ten pours 32.0 deg (std 2.2, se 0.7),
 // twenty 32.8 (std 2.4, se 0.5), the test's five 32.7, short of the band's lower edge (33.2).
-// Run it by name: tamp_tests "Aggregate: a heap*".
-TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
-          "[.][known-defect][aggregate]") {
+// Since the aggregate takes its viscosity on the head-on part of each pair's approach only
+// (2026-12-07, twenty-third session; docs/sph.md "Head-on viscosity"), so that a thin
+// avalanche is no longer lifted off its bed, the test passes: five pours 38.3 deg (std 3.6,
+// se 1.6), fastest grain 0.98 mm/s; twenty 38.2 (std 2.7, se 0.6), fastest 4.6 mm/s (pour 8,
+// at rest after 3 s). No longer a known defect; hidden for its time (about 1 minute on 2
+// threads, which the CI's 20 minutes do not have to spare). Run it by name: tamp_tests
+// "Aggregate: a heap*".
+struct HeapEnsemble {
+  double mean_flank_deg = 0, fastest = 0, repose_deg = 0;  // deg, m/s, deg
+};
+HeapEnsemble pour_heaps(int default_pours) {
   // Poured as a rain over a disk of radius 0.1 m: every 0.05 s one row of particles (one
   // per radial band, at rest, zero stress, the ring mass of where it lands) is placed one
   // spacing above the top of its band; 25 rows, then 1.5 s to settle. The heap grows by
@@ -594,7 +602,6 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   // radius jittered by up to +-0.1 spacing (a fixed pseudo-random sequence per pour, so the
   // test is deterministic), as a real rain does. The flank asserted is the ensemble mean;
   // its standard error is printed.
-  tamp::log::set_level(tamp::log::Level::Quiet);
   // For the study in docs/drop-sequence.md, the environment may change the spacing, the pour
   // radius, the friction angle, the dilation angle, the cohesion, the shear modulus, the
   // separation density (0 = never), the viscosity alpha, the smoothing length, the kernel
@@ -607,7 +614,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
   const double R_in = knob("TAMP_HEAP_RIN", 0.0);  // > 0: a ridge poured on an annulus (almost plane strain)
   const double W = 0.5 + R_in, R_pour = knob("TAMP_HEAP_RPOUR", 0.1);
   const int rows = static_cast<int>(std::lround(0.25 / dp));
-  const int pours = std::max(1, static_cast<int>(knob("TAMP_HEAP_POURS", 5)));
+  const int pours = std::max(1, static_cast<int>(knob("TAMP_HEAP_POURS", default_pours)));
   Config cfg = aggregate_cone(45.0, R_pour, dp, W);
   cfg.blocks.resize(1);  // the first row: a disk one spacing thick
   cfg.blocks[0].r_min = R_in;
@@ -700,8 +707,29 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
                 mean_of(fed_flanks));
   std::printf("[heap] target (simple-shear friction of phi %.0f, psi %.0f) %.1f deg +- 3\n", agg.phi_deg, agg.psi_deg,
               repose_deg);
-  CHECK(std::fabs(mean - repose_deg) < 3.0);
-  CHECK(fastest < 5e-3);
+  return {mean, fastest, repose_deg};
+}
+
+TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
+          "[.][long][aggregate]") {
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const HeapEnsemble e = pour_heaps(5);
+  CHECK(std::fabs(e.mean_flank_deg - e.repose_deg) < 3.0);
+  CHECK(e.fastest < 5e-3);
+  tamp::log::set_level(tamp::log::Level::Info);
+}
+
+// The CI's small version of the test above: its first three pours (the lattice rain and two
+// jittered ones), the same assertions. Three pours are a coarser ensemble (a standard error
+// of about 1.5-2 deg against the band's 3); the five-pour test and the twenty-pour figures
+// (docs/drop-sequence.md "The head-on viscosity") stay the measurement. Measured 2026-12-07:
+// 37.4 / 35.7 / 35.5, mean 36.2 deg, fastest grain 0.98 mm/s.
+TEST_CASE("Aggregate: three pours of the charge stand within 3 deg of atan(sin phi) and come to rest",
+          "[aggregate]") {
+  tamp::log::set_level(tamp::log::Level::Quiet);
+  const HeapEnsemble e = pour_heaps(3);
+  CHECK(std::fabs(e.mean_flank_deg - e.repose_deg) < 3.0);
+  CHECK(e.fastest < 5e-3);
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
@@ -788,8 +816,10 @@ std::vector<InclineReport> incline_layer(double theta_deg, double layers, double
 // 2026-12-07 it failed as the lab deck was (alpha 0.5): the layer accelerated at 30 deg,
 // because the viscosity dilated the sheared basal row below the separation density. It
 // passes with the aggregate's viscosity share 0.2 (alpha 0.1; docs/sph.md "Artificial
-// viscosity per material"): at rest at 30 deg within 1.25 s, flowing at 40 deg. Hidden for
-// its time (67 s on 2 threads; the CI's 20 minutes have about half a minute to spare).
+// viscosity per material"): at rest at 30 deg within 1.25 s, flowing at 40 deg. With the
+// head-on viscosity (2026-12-07, twenty-third session): 0.010 m/s at 30 deg 0.5 s after the
+// kick, 0.0008 at 1.0 s; 0.44 m/s at 40 deg 1.0 s after the kick. Hidden for its time (45-67 s
+// on 2 threads; the CI's 20 minutes have about half a minute to spare).
 // Knobs: TAMP_INCLINE_THETA (a list of angles), TAMP_INCLINE_LAYERS, TAMP_INCLINE_TIME, and
 // those of incline_layer.
 // Run it by name: tamp_tests "Aggregate: a layer*".
@@ -817,8 +847,7 @@ TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(
   tamp::log::set_level(tamp::log::Level::Info);
 }
 
-// Hidden (known defect, docs/drop-sequence.md "Thin layers flow where thick ones stop"): the
-// same charge in a layer 3 cm thick (3 spacings at 10 mm, the lowest glued) must stop at
+// The same charge in a layer 3 cm thick (3 spacings at 10 mm, the lowest glued) must stop at
 // 30 deg as the 8 cm layer does: Mohr-Coulomb has no length scale, so the stopping angle
 // does not depend on the thickness (and real layers stop at steeper angles when thin,
 // Pouliquen 1999, not shallower). Asserted: from the kick's speed (about 0.55 m/s) the
@@ -834,10 +863,13 @@ TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(
 // looked for. With the aggregate's alpha at 0.02 (TAMP_INCLINE_ALPHA=0.1) it decelerates,
 // 0.63 -> 0.41 -> 0.07 m/s, still short of the second assertion. Since a separated grain
 // keeps its loosest packing and the charge compacts (2026-12-07, twenty-second session):
-// 0.555 -> 0.617 -> 0.229 m/s, slowing within 0.5 s but not within the first 0.25 s.
-// Run it by name: tamp_tests "Aggregate: a thin layer*".
+// 0.555 -> 0.617 -> 0.229 m/s, slowing within 0.5 s but not within the first 0.25 s. It was
+// a hidden known defect until the aggregate took its viscosity on the head-on part of each
+// pair's approach only (2026-12-07, twenty-third session; docs/sph.md "Head-on viscosity"):
+// 0.428 -> 0.078 -> 0.000 m/s, and the 3 cm layer stops at 33 and 36 deg as well and runs off
+// at 40 (docs/drop-sequence.md "The head-on viscosity"). 4 s on 2 threads.
 TEST_CASE("Aggregate: a thin layer of the charge (3 cm) on a rough incline stops at 30 deg, as a thick one does",
-          "[.][known-defect][aggregate]") {
+          "[aggregate]") {
   tamp::log::set_level(tamp::log::Level::Quiet);
   const auto trace = incline_layer(30.0, 3, 0.5);
   REQUIRE(trace.size() == 3);  // kicked, then 0.25 and 0.5 s after the kick

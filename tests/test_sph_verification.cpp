@@ -346,3 +346,66 @@ TEST_CASE("SPH: geostatic initial stress of 20 layers (no limit on the number of
   std::printf("[sph] 20 geostatic layers: worst sigma_zz error %.1e\n", worst);
   CHECK(worst < 1e-12);
 }
+
+// The head-on viscosity (docs/sph.md "Head-on viscosity") on one pair of particles far from
+// the axis (r = 5 m, so that the two rings weigh the same), no walls, no gravity, zero stress:
+// particle a approaches b at speed U with its velocity at an angle gamma to the line of
+// centres. The viscous heating of the pair (kernels/SphSolid.hpp: each particle books half
+// of Pi_ab v_ab . grad W_ab) with the materials' viscosity_head_on s_a, s_b, relative to
+// Monaghan's (both 0), must be 1 - s (1 - cos gamma), s = (s_a + s_b) / 2: 1 head on, cos
+// gamma for two granular particles, (1 + cos gamma) / 2 for a mixed pair. One step of 1e-6 s
+// at U = 0.1 m/s: the geometry moves by 1e-5 of the spacing, and cos gamma is taken from the
+// positions after it; tolerance 1e-9 relative (round-off of the pair sums).
+TEST_CASE("SPH: the head-on viscosity damps a pair's approach by the cosine of its angle to the line of centres",
+          "[sph]") {
+  const double dp = 0.01, U = 0.1, r0 = 5.0, z0 = 0.5;
+  // the heat rate of particle a (W/kg) and cos gamma after one step, the pair at angle theta
+  // (to the r axis) approaching at gamma, with head-on shares s_a (the added particle), s_b
+  auto heat = [&](double theta, double gamma, double s_a, double s_b) {
+    Config cfg = column_config(r0 + dp, dp, dp);
+    cfg.blocks[0].r_min = r0;
+    cfg.blocks[0].z_min = z0;
+    cfg.blocks[0].z_max = z0 + dp;
+    cfg.bottom = {WallType::None, 0.0};
+    cfg.outer = {WallType::None, 0.0};
+    MaterialSpec a = lab_clay_elastic(), b = lab_clay_elastic();
+    b.viscosity_head_on = s_b;
+    a.name = "moving";
+    a.viscosity_head_on = s_a;
+    cfg.materials = {b, a};
+    Simulation sim(cfg);
+    REQUIRE(sim.particle_count() == 1);
+    const double rb = r0 + 0.5 * dp, zb = z0 + 0.5 * dp;
+    sim.add_particles({{rb + dp * std::cos(theta), zb + dp * std::sin(theta), 1}});
+    auto v = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sim.particles().v);
+    auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sim.particles().x);
+    const int ia = x(0, 0) > rb + 0.1 * dp || x(0, 1) > zb + 0.1 * dp ? 0 : 1;  // the added one
+    v(ia, 0) = -U * std::cos(theta + gamma);
+    v(ia, 1) = -U * std::sin(theta + gamma);
+    Kokkos::deep_copy(sim.particles().v, v);
+    sim.step(1e-6);
+    Kokkos::deep_copy(x, sim.particles().x);
+    auto q = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sim.particles().du_visc);
+    const double dr = x(ia, 0) - x(1 - ia, 0), dz = x(ia, 1) - x(1 - ia, 1);
+    const double cos_gamma = (U * std::cos(theta + gamma) * dr + U * std::sin(theta + gamma) * dz) /
+                             (U * std::hypot(dr, dz));
+    REQUIRE(q(ia) > 0);
+    return std::make_pair(q(ia), cos_gamma);
+  };
+  const double deg = M_PI / 180.0;
+  for (double theta : {30.0 * deg, 120.0 * deg}) {
+    const auto [h0, c0] = heat(theta, 0.0, 0.0, 0.0);
+    const auto [h1, c1] = heat(theta, 0.0, 1.0, 1.0);
+    std::printf("[sph] head-on viscosity, head on: heat %.6e (Monaghan) %.6e (s = 1)\n", h0, h1);
+    CHECK(h1 == Approx(h0).epsilon(1e-9));
+    for (double gamma : {60.0 * deg, 80.0 * deg}) {
+      const auto [m, cm] = heat(theta, gamma, 0.0, 0.0);
+      const auto [g, cg] = heat(theta, gamma, 1.0, 1.0);
+      const auto [mixed, cx] = heat(theta, gamma, 1.0, 0.0);
+      std::printf("[sph] head-on viscosity at %.0f deg: granular %.6f (cos %.6f), mixed %.6f (%.6f)\n", gamma / deg,
+                  g / m, cg, mixed / m, 0.5 * (1 + cx));
+      CHECK(g / m == Approx(cg).epsilon(1e-9));
+      CHECK(mixed / m == Approx(0.5 * (1.0 + cx)).epsilon(1e-9));
+    }
+  }
+}

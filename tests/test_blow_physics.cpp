@@ -710,13 +710,19 @@ HeapEnsemble pour_heaps(int default_pours) {
   return {mean, fastest, repose_deg};
 }
 
-TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
-          "[.][long][aggregate]") {
+// The heap tests' assertions on `pours` pours: the mean flank within 3 deg of atan(sin phi)
+// (the issue's tolerance), every grain slower than 5 mm/s at the end.
+void check_heap_stands(int pours) {
   tamp::log::set_level(tamp::log::Level::Quiet);
-  const HeapEnsemble e = pour_heaps(5);
+  const HeapEnsemble e = pour_heaps(pours);
   CHECK(std::fabs(e.mean_flank_deg - e.repose_deg) < 3.0);
   CHECK(e.fastest < 5e-3);
   tamp::log::set_level(tamp::log::Level::Info);
+}
+
+TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its angle of repose, and comes to rest",
+          "[.][long][aggregate]") {
+  check_heap_stands(5);
 }
 
 // The CI's small version of the test above: its first three pours (the lattice rain and two
@@ -726,11 +732,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
 // 37.4 / 35.7 / 35.5, mean 36.2 deg, fastest grain 0.98 mm/s.
 TEST_CASE("Aggregate: three pours of the charge stand within 3 deg of atan(sin phi) and come to rest",
           "[aggregate]") {
-  tamp::log::set_level(tamp::log::Level::Quiet);
-  const HeapEnsemble e = pour_heaps(3);
-  CHECK(std::fabs(e.mean_flank_deg - e.repose_deg) < 3.0);
-  CHECK(e.fastest < 5e-3);
-  tamp::log::set_level(tamp::log::Level::Info);
+  check_heap_stands(3);
 }
 
 // The incline of the two tests below (docs/drop-sequence.md "A layer of the charge on a

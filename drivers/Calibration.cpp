@@ -26,6 +26,7 @@
 #include "drivers/ForwardRuns.hpp"
 #include "drivers/Ranks.hpp"
 #include "drivers/Simulation.hpp"
+#include "drivers/loop/EmulatedFit.hpp"
 
 namespace tamp {
 namespace fs = std::filesystem;
@@ -673,22 +674,202 @@ FitResult calibrate_nlopt(const Config&, const ObservationSet&, const std::vecto
 #endif
 }  // namespace
 
+// ------------------------------------------------------------------ calibration on emulators
+
+FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, const std::vector<ParameterRange>& ranges,
+                             const EmulatorSettings& settings, ForwardRuns& runs, const std::string& seed_label,
+                             const std::vector<std::vector<double>>& start) {
+  const int d = static_cast<int>(ranges.size());
+  const long n = static_cast<long>(data.observations.size());
+  if (d == 0) throw std::invalid_argument("calibrate: no parameters to fit");
+  std::vector<double> tlo(d), thi(d);
+  for (int j = 0; j < d; ++j) {
+    const ParameterRange& r = ranges[static_cast<size_t>(j)];
+    if (!(r.lo > 0) || !(r.hi > r.lo) || !std::isfinite(r.hi))
+      throw std::invalid_argument("calibrate: the range of " + r.name + " is [" + fmt_g(r.lo) + ", " + fmt_g(r.hi) +
+                                  "]; allowed: 0 < lo < hi, finite");
+    (void)get_param(cfg0, r.name);  // a known parameter of the deck
+    tlo[static_cast<size_t>(j)] = to_t(r.name, r.lo);
+    thi[static_cast<size_t>(j)] = to_t(r.name, r.hi);
+  }
+  auto value_at = [&](const Eigen::VectorXd& x, int j) {
+    const size_t k = static_cast<size_t>(j);
+    return from_t(ranges[k].name, tlo[k] + x(j) * (thi[k] - tlo[k]));
+  };
+  auto config_at = [&](const Eigen::VectorXd& x) {
+    Config c = cfg0;
+    for (int j = 0; j < d; ++j) set_param(c, ranges[static_cast<size_t>(j)].name, value_at(x, j));
+    return c;
+  };
+  Eigen::VectorXd targets(n), sigmas(n);
+  for (long i = 0; i < n; ++i) {
+    targets(i) = data.observations[static_cast<size_t>(i)].value;
+    sigmas(i) = data.observations[static_cast<size_t>(i)].sigma;
+  }
+  std::vector<std::pair<Eigen::VectorXd, RunOutputs>> done;  // every successful run, for the fit's outputs
+  const loop::UnitSimulator simulate = [&](const std::vector<Eigen::VectorXd>& pts) {
+    std::vector<Config> batch;
+    for (const auto& x : pts) batch.push_back(config_at(x));
+    const auto results = runs.run(batch);
+    std::vector<Eigen::VectorXd> out;
+    for (size_t k = 0; k < pts.size(); ++k) {
+      if (!results[k].ok) {
+        out.emplace_back();
+        continue;
+      }
+      const auto res = residuals(data, results[k].outputs);
+      Eigen::VectorXd y(n);
+      bool finite = true;
+      for (long i = 0; i < n; ++i) {
+        y(i) = res[static_cast<size_t>(i)].model;
+        finite = finite && std::isfinite(y(i));
+      }
+      out.push_back(finite ? y : Eigen::VectorXd());
+      if (finite) done.emplace_back(pts[k], results[k].outputs);
+    }
+    return out;
+  };
+  loop::EmulatedFitOptions o;
+  o.points_per_parameter = settings.points_per_parameter;
+  o.batch = settings.batch;
+  o.max_rounds = settings.max_rounds;
+  o.confirm_z = settings.confirm_z;
+  o.max_latent_share = settings.max_latent_share;
+  o.seed = std::stoull(deck_key(seed_label), nullptr, 16);
+  std::vector<Eigen::VectorXd> xs;
+  for (const auto& v : start) {
+    if (static_cast<int>(v.size()) != d) throw std::invalid_argument("calibrate_emulated: a start point has the wrong size");
+    Eigen::VectorXd x(d);
+    for (int j = 0; j < d; ++j) {
+      const size_t k = static_cast<size_t>(j);
+      x(j) = (to_t(ranges[k].name, v[k]) - tlo[k]) / (thi[k] - tlo[k]);
+    }
+    xs.push_back(x);
+  }
+  const loop::EmulatedFit ef = loop::emulated_fit(simulate, targets, sigmas, d, o, xs);
+
+  FitResult fit;
+  fit.n = static_cast<int>(n);
+  fit.runs = ef.runs;
+  fit.confirmed = ef.converged;
+  for (const auto& r : ranges) fit.names.push_back(r.name);
+  if (ef.x.size() != d) {  // every run failed
+    fit.chi2 = std::numeric_limits<double>::infinity();
+    fit.error = std::numeric_limits<double>::infinity();
+    fit.values.assign(static_cast<size_t>(d), std::numeric_limits<double>::quiet_NaN());
+    fit.sigmas = fit.values;
+    return fit;
+  }
+  for (int j = 0; j < d; ++j) {
+    const double v = value_at(ef.x, j);
+    const double dt = thi[static_cast<size_t>(j)] - tlo[static_cast<size_t>(j)];
+    fit.values.push_back(v);
+    fit.sigmas.push_back(std::sqrt(std::max(0.0, ef.cov(j, j))) * dt * dvalue_dt(ranges[static_cast<size_t>(j)].name, v));
+  }
+  // The fit as the emulators see it (docs/closing-the-loop.md "Emulators"): per observation
+  // their mean at the optimum, normalised by sigma^2 plus their predictive variance; chi2 is the
+  // deviance (with the likelihood's normalisation, sum ln(1 + v / sigma^2)), so that BIC =
+  // deviance + k ln n is the Gaussian likelihood's. The confirmation run's own residuals go
+  // to the JSON beside them.
+  for (const auto& [x, out] : done)
+    if (x == ef.x) fit.outputs = out;
+  fit.chi2 = ef.predicted.deviance;
+  fit.residuals = residuals(data, fit.outputs);
+  const double run_error = rms(fit.residuals);
+  for (long i = 0; i < n; ++i) {
+    Residual& r = fit.residuals[static_cast<size_t>(i)];
+    r.model = ef.mean(i);
+    r.normalised = (ef.mean(i) - targets(i)) / std::sqrt(sigmas(i) * sigmas(i) + ef.sd(i) * ef.sd(i));
+  }
+  fit.error = rms(fit.residuals);
+
+  nlohmann::ordered_json j;
+  j["design_points"] = ef.design_points;
+  j["rounds"] = ef.rounds;
+  j["runs"] = ef.runs;
+  j["failed_runs"] = ef.failed;
+  j["batch"] = settings.batch;
+  j["chi2"] = ef.predicted.chi2;
+  j["deviance"] = ef.predicted.deviance;
+  j["latent_share"] = ef.predicted.latent_share;
+  j["confirmed"] = ef.confirmed;
+  j["converged"] = ef.converged;
+  j["confirmation_worst_z"] = ef.worst_z;
+  j["confirm_z"] = settings.confirm_z;
+  j["confirmation_run_chi2"] = ef.run_chi2;
+  j["confirmation_run_error"] = run_error;
+  j["rounds_emulated_chi2"] = ef.round_predicted;
+  j["rounds_run_chi2"] = ef.round_confirmed;
+  j["prediction"] = nlohmann::ordered_json::array();
+  for (long i = 0; i < n; ++i)
+    j["prediction"].push_back({{"quantity", quantity_label(data.observations[static_cast<size_t>(i)])},
+                               {"measured", targets(i)}, {"sigma", sigmas(i)}, {"emulator_mean", ef.mean(i)},
+                               {"emulator_sd", ef.sd(i)}, {"confirmation_run", ef.outputs.size() == n ? ef.outputs(i) : NAN}});
+  j["leave_one_out"] = nlohmann::ordered_json::array();
+  for (long i = 0; i < n; ++i)
+    j["leave_one_out"].push_back({{"quantity", quantity_label(data.observations[static_cast<size_t>(i)])},
+                                  {"rmse_in_sigma", ef.loo_rmse_sigma(i)},
+                                  {"standardised_rms", ef.loo_z_rms(i)}});
+  j["parameters"] = nlohmann::ordered_json::array();
+  for (int k = 0; k < d; ++k) {
+    const ParameterRange& r = ranges[static_cast<size_t>(k)];
+    // identified: the data pin the parameter to within a quarter of its range (1 sd, fitted
+    // coordinate); a parameter that is not is fixed where the catalogue fixes it
+    const double sd_unit = std::sqrt(std::max(0.0, ef.cov(k, k)));
+    j["parameters"].push_back({{"name", r.name}, {"lo", r.lo}, {"hi", r.hi}, {"source", r.source},
+                               {"value", fit.values[static_cast<size_t>(k)]}, {"sigma", fit.sigmas[static_cast<size_t>(k)]},
+                               {"sd_in_range", sd_unit}, {"identified", sd_unit < 0.25}});
+  }
+  fit.emulator_json = j.dump();
+  return fit;
+}
+
 // ------------------------------------------------------------------ effects
 
+// The ranges of the catalogue's parameters, with their sources (docs/effects.md "Ranges"):
+// the boxes of the emulators' designs.
+namespace {
+const EffectCandidate::KeyRange kCrushPressure{
+    "crush_pressure", 2e3, 400e3,
+    "apparent preconsolidation of a soft clay near the surface to a stiff fill, 2-400 kPa (the lab clay: Su 10 kPa)",
+    400e3};
+const EffectCandidate::KeyRange kAirVoids{
+    "air_voids", 0.02, 0.35,
+    "air voids of a compacted to a loosely placed unsaturated soil, 2-35 % (the lab charge: 1526 -> 1835 kg/m3, 17 %)",
+    0.02};
+const EffectCandidate::KeyRange kRateCoefficient{
+    "rate_coefficient", 0.01, 1.0,
+    "strength gain per log cycle of strain rate, 0.05-0.2 in clays (Biscontin & Pestana 2001; Einav & Randolph 2005), "
+    "widened to 0.01-1 for impact rates",
+    0.01};
+const EffectCandidate::KeyRange kRemouldedRatio{
+    "remoulded_ratio", 0.1, 0.98, "1 / sensitivity, St 1-10: insensitive to medium-sensitive clays (Skempton & Northey 1952)",
+    0.98};
+const EffectCandidate::KeyRange kRemouldingStrain{
+    "remoulding_strain", 0.1, 20.0,
+    "plastic shear strain to 95 % of the loss: 10-50 in cyclic T-bar tests (Einav & Randolph 2005), down to 0.1 for a "
+    "brittle clay",
+    20.0};
+const EffectCandidate::KeyRange kLambda{"lambda", 0.05, 0.6,
+                                        "slope of the normal compression line, 0.1-0.5 for soft clays (Wood 1990)"};
+const EffectCandidate::KeyRange kPc0PerSu{"p_c0", 0.5 * 4.0 / 0.9, 2.0 * 4.0 / 0.9,
+                                          "4 Su / M (q = 2 Su at the yield surface's top) within a factor 2"};
+}  // namespace
+
 const std::vector<EffectCandidate>& effect_catalogue() {
-  // One fitted parameter per effect (the others fixed at typical values, docs/effects.md),
-  // started where the effect is active.
+  // Each effect fits the parameters the data can constrain (docs/effects.md "What each
+  // effect fits"): compaction its crush pressure and air voids (the hardening fixed at 0),
+  // rate its coefficient (the reference rate fixed at 1/s: above it, a reference 10^a times
+  // higher is a strength (1 - beta a) times lower, so the two are one parameter), remoulding
+  // its ratio and strain. Started where the effect is active; the profile grid (method
+  // "profile") from nearly off to strong.
   static const std::vector<EffectCandidate> c{
-      // started weak, the first simplex step toward a strong effect
-      // profile grids from nearly off to strong, 5 values about evenly spaced in the fitted
-      // coordinate (the strength and the effect trade off along a narrow valley that a
-      // simplex started at one end does not follow)
-      {"compaction", {{"air_voids", 0.15}, {"crush_hardening", 0.0}}, {{"crush_pressure", 60e3}},
-       {400e3, 160e3, 60e3, 25e3, 10e3}, "", "", 0},
+      {"compaction", {{"crush_hardening", 0.0}}, {{"crush_pressure", 60e3}, {"air_voids", 0.15}},
+       {400e3, 160e3, 60e3, 25e3, 10e3}, "", "", 0, false, {kCrushPressure, kAirVoids}},
       {"rate", {{"reference_strain_rate", 1.0}}, {{"rate_coefficient", 0.1}}, {0.02, 0.06, 0.15, 0.35, 0.8}, "", "", 0,
-       true},
-      {"remoulding", {{"remoulding_strain", 0.5}}, {{"remoulded_ratio", 0.7}}, {0.95, 0.85, 0.7, 0.5, 0.3}, "", "", 0,
-       true},
+       true, {kRateCoefficient}},
+      {"remoulding", {}, {{"remoulded_ratio", 0.7}, {"remoulding_strain", 0.5}}, {0.95, 0.85, 0.7, 0.5, 0.3}, "", "", 0,
+       true, {kRemouldedRatio, kRemouldingStrain}},
   };
   return c;
 }
@@ -702,7 +883,7 @@ const std::vector<EffectCandidate>& model_switch_catalogue() {
   // Fixed at typical values of a soft clay: kappa 0.04, M 0.9 (phi_cs about 23 deg), v0 2.2.
   static const std::vector<EffectCandidate> c{
       {"modified-cam-clay", {{"kappa", 0.04}, {"M", 0.9}, {"v0", 2.2}}, {{"lambda", 0.2}},
-       {0.06, 0.1, 0.2, 0.35, 0.6}, "modified-cam-clay", "p_c0", 4.0 / 0.9},
+       {0.06, 0.1, 0.2, 0.35, 0.6}, "modified-cam-clay", "p_c0", 4.0 / 0.9, false, {kLambda, kPc0PerSu}},
   };
   return c;
 }
@@ -762,6 +943,7 @@ nlohmann::ordered_json fit_json(const std::string& name, const FitResult& f) {
   double ratio = std::numeric_limits<double>::quiet_NaN();
   if (hv != f.outputs.summary.end() && av != f.outputs.summary.end() && av->second > 0) ratio = hv->second / av->second;
   j["heave_to_column_volume"] = ratio;  // null when not measured
+  if (!f.emulator_json.empty()) j["emulator"] = nlohmann::ordered_json::parse(f.emulator_json);
   return j;
 }
 }  // namespace
@@ -912,6 +1094,70 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
   return f;
 }
 
+// The box of a candidate's emulator design (docs/closing-the-loop.md "Emulators"): the
+// effect's own keys over their catalogue ranges; a model switch's strength within a factor 2
+// of its start (from Su); the parameters already in the model from 0.5 to 1.6 times their
+// current value (the strength an effect trades against: the rate test's Su falls to 0.65 of
+// the baseline's), within the catalogue's range of the key where it has one.
+std::vector<ParameterRange> candidate_ranges(const Config& with_effect, const std::vector<std::string>& params,
+                                             const StepCandidate& cand) {
+  auto catalogue_range = [](const std::string& key) -> const EffectCandidate::KeyRange* {
+    for (const auto* cat : {&effect_catalogue(), &model_switch_catalogue()})
+      for (const auto& e : *cat)
+        for (const auto& r : e.ranges)
+          if (r.key == key) return &r;
+    return nullptr;
+  };
+  std::vector<ParameterRange> out;
+  for (const auto& p : params) {
+    const auto dot = p.find('.');
+    const std::string material = p.substr(0, dot), key = p.substr(dot + 1);
+    const double v = get_param(with_effect, p);
+    ParameterRange r{p, 0.5 * v, 1.6 * v, "the current fit's value x [0.5, 1.6]"};
+    bool own = false;
+    if (material == cand.material)
+      for (const auto& [k, v0] : cand.effect->fitted) own = own || k == key;
+    const bool strength = material == cand.material && !cand.effect->model.empty() && key == cand.effect->strength;
+    const EffectCandidate::KeyRange* cr = catalogue_range(key);
+    if (own && cr) {
+      r = {p, cr->lo, cr->hi, cr->source};
+    } else if (strength) {
+      r = {p, 0.5 * v, 2.0 * v, cr ? cr->source : std::string("its start within a factor 2")};
+    } else if (cr && cr->key != "p_c0") {
+      const double lo = std::max(r.lo, cr->lo), hi = std::min(r.hi, cr->hi);
+      if (hi > lo) r = {p, lo, hi, r.source + ", within " + fmt_g(cr->lo) + "-" + fmt_g(cr->hi) + " (" + cr->source + ")"};
+    }
+    out.push_back(r);
+  }
+  return out;
+}
+
+// A candidate fitted on emulators on top of the current model: its design over the
+// current parameters and the effect's (candidate_ranges), seeded by the step and the label.
+FitResult emulated_candidate_fit(const Config& current, const std::vector<std::string>& current_params,
+                                 const StepCandidate& cand, const ObservationSet& data, const DiagnoseOptions& opt,
+                                 int step) {
+  Config c = current;
+  apply_effect(c, cand.material, cand.effect->name);
+  const std::vector<std::string> params = candidate_params(c, current_params, cand);
+  const std::vector<ParameterRange> box = candidate_ranges(c, params, cand);
+  // The anchor: the current fit with the effect at its weakest (a point on the face of the box
+  // nearest the current model), so that the candidate's emulator knows the model it extends.
+  std::vector<std::vector<double>> anchor;
+  if (cand.effect->model.empty()) {
+    std::vector<double> a;
+    for (const auto& r : box) {
+      double v = std::min(r.hi, std::max(r.lo, get_param(c, r.name)));
+      for (const auto& kr : cand.effect->ranges)
+        if (r.name == cand.material + "." + kr.key && kr.weakest > 0) v = kr.weakest;
+      a.push_back(v);
+    }
+    anchor.push_back(a);
+  }
+  return calibrate_emulated(c, data, box, opt.emulator, *opt.fit.runner, "step " + std::to_string(step) + ": " + cand.label,
+                            anchor);
+}
+
 // The selected candidate's fit polished again: a fresh simplex from its best point (first
 // steps 0.05, the Jacobian's: those points are in the run cache) with the same budget,
 // repeated while a restart gains at least 1 % of chi2 and the misfit is above what the
@@ -1022,6 +1268,8 @@ std::vector<DiagnosisCandidate> diagnosis_candidates(const ObservationSet& data,
 std::string diagnose(const ObservationSet& data, const std::string& out_dir, const DiagnoseOptions& opt0) {
   if (opt0.max_steps < 1)
     throw std::invalid_argument("diagnose: max_steps " + std::to_string(opt0.max_steps) + "; allowed: 1 or more");
+  if (opt0.method != "emulator" && opt0.method != "profile")
+    throw std::invalid_argument("diagnose: method '" + opt0.method + "'; allowed: emulator, profile");
   DiagnoseOptions opt = opt0;
   fs::create_directories(out_dir);
   if (opt.fit.scratch.empty()) opt.fit.scratch = out_dir + "/scratch";
@@ -1049,8 +1297,19 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   std::string refit_param = opt.baseline_params[0];
   log::info("diagnose: baseline fit of " + std::to_string(opt.baseline_params.size()) + " parameter(s)");
   // baseline: a coarse scan (factors 0.5-2 of the deck values), then Nelder-Mead
-  const FitResult baseline0 = scan_then_polish(base, data, opt.baseline_params, {0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0},
-                                               0.1, 10 + 8 * static_cast<int>(opt.baseline_params.size()), opt.fit);
+  const bool emulated = opt.method == "emulator";
+  FitResult baseline0;
+  if (emulated) {  // the baseline's parameters within a factor 2 of the deck's values
+    std::vector<ParameterRange> box;
+    for (const auto& p : opt.baseline_params) {
+      const double v = get_param(base, p);
+      box.push_back({p, 0.5 * v, 2.0 * v, "the deck's value within a factor 2"});
+    }
+    baseline0 = calibrate_emulated(base, data, box, opt.emulator, runner, "baseline");
+  } else {
+    baseline0 = scan_then_polish(base, data, opt.baseline_params, {0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0}, 0.1,
+                                 10 + 8 * static_cast<int>(opt.baseline_params.size()), opt.fit);
+  }
   // The steps: every remaining candidate refitted on top of the current model; the one that
   // lowers BIC most, by more than the margin, joins it; stop when none does.
   std::vector<DiagnosisStep> steps;
@@ -1092,7 +1351,8 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     runner.side_by_side(remaining.size(), [&](size_t i) {
       CalibrateOptions inner = opt.fit;
       inner.verbose = false;
-      refits[i] = profile_fit(current_cfg, current.names, refit_param, remaining[i], data, inner);
+      refits[i] = emulated ? emulated_candidate_fit(current_cfg, current.names, remaining[i], data, opt, k + 1)
+                           : profile_fit(current_cfg, current.names, refit_param, remaining[i], data, inner);
     });
     for (size_t i = 0; i < remaining.size(); ++i) st.fits.emplace_back(remaining[i], refits[i]);
     // Fair comparison: the current model at each candidate's values of its own parameters;
@@ -1100,10 +1360,12 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     // credited with what a better strength alone achieves).
     // The points are run as one batch; only one that fits better is fitted again (its point
     // from the cache, plus its Jacobian for the uncertainty).
-    // (Not for a model switch: its parameters are not the current model's.)
+    // (Not for a model switch: its parameters are not the current model's. Not for fits on
+    // emulators: the current fit is the optimum of a smooth emulator of the current model, and
+    // a single run's chi2 beside it would compare the simulator's jitter, not the fits.)
     std::vector<Config> probes;
     std::vector<size_t> probed_fit;
-    for (size_t i = 0; i < st.fits.size(); ++i) {
+    for (size_t i = 0; i < st.fits.size() && !emulated; ++i) {
       const auto& [cand, f] = st.fits[i];
       if (!cand.effect->model.empty()) continue;
       Config c = current_cfg;
@@ -1137,7 +1399,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
         best = st.fits[i].second.bic();
         st.chosen = static_cast<int>(i);
       }
-    if (st.chosen >= 0) {
+    if (st.chosen >= 0 && !emulated) {  // (an emulated fit is converged by its confirmation rounds)
       auto& [sel, fit] = st.fits[static_cast<size_t>(st.chosen)];
       fit = polish_selected(current_cfg, sel, fit, data, opt.fit);
     }

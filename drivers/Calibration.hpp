@@ -78,6 +78,11 @@ struct FitResult {
   int n = 0;                           // observations
   std::vector<Residual> residuals;
   RunOutputs outputs;                  // of the best fit
+  // A fit on emulators (calibrate_emulated): the design, the emulators' leave-one-out
+  // errors, predicted and confirmed chi2, each parameter's range and identifiability, as a
+  // JSON object ("" for a fit by forward runs alone).
+  std::string emulator_json;
+  bool confirmed = true;               // an emulated fit: its optimum's run confirmed the emulators
   double bic() const;                  // chi2 + k ln n (known uncertainties)
 };
 
@@ -104,6 +109,30 @@ struct CalibrateOptions {
 FitResult calibrate(const Config& cfg, const ObservationSet& data, const std::vector<std::string>& params,
                     const CalibrateOptions& opt);
 
+// A fitted parameter's range: the box of an emulator's design, with where it comes from.
+struct ParameterRange {
+  std::string name;  // "<material>.<key>" or "contact.<key>"
+  double lo = 0, hi = 0;
+  std::string source;
+};
+
+// A fit on emulators (drivers/loop/EmulatedFit.hpp): a maximin Latin hypercube of about
+// `points_per_parameter` runs per parameter over `ranges` (in the fitted coordinate: log, or
+// logit for a fraction), a Gaussian process per observation, the fit on them, confirmed by
+// runs at the emulators' optimum, q = `batch` points per round. `start` (the current
+// model's values, already run) joins the design when it lies in the box. `seed_label` seeds
+// the design (the same label, the same design). `runs` does the forward runs.
+struct EmulatorSettings {
+  int points_per_parameter = 10;
+  int batch = 2;
+  int max_rounds = 4;
+  double confirm_z = 3.0;
+  double max_latent_share = 1.0;
+};
+FitResult calibrate_emulated(const Config& cfg, const ObservationSet& data, const std::vector<ParameterRange>& ranges,
+                             const EmulatorSettings& settings, ForwardRuns& runs, const std::string& seed_label,
+                             const std::vector<std::vector<double>>& start = {});
+
 // One entry of the effect catalogue, as the diagnosis tries it: an effect composed with the
 // material's model, or a constitutive-model switch (`model` set), which replaces the model.
 struct EffectCandidate {
@@ -120,6 +149,15 @@ struct EffectCandidate {
   // The effect scales the material's strength c (rate, remoulding: c = c0 F): on a material
   // with c0 = 0 (a cohesionless charge) it has nothing to act on and is not a candidate.
   bool scales_strength = false;
+  // The physical range of each fitted key (and of `strength`, per Su), with its source: the
+  // box of the candidate's emulator design.
+  struct KeyRange {
+    std::string key;
+    double lo, hi;
+    std::string source;
+    double weakest = 0;  // the value in [lo, hi] where the effect is weakest (its design's anchor; 0: none)
+  };
+  std::vector<KeyRange> ranges;
 };
 const std::vector<EffectCandidate>& effect_catalogue();
 // The constitutive-model switches a data file may ask for (`model_switches`).
@@ -132,6 +170,11 @@ void apply_effect(Config& cfg, const std::string& material, const std::string& e
 
 struct DiagnoseOptions {
   std::vector<std::string> baseline_params;  // default: {"<target>.Su"}
+  // "emulator" (default): each fit on emulators from a space-filling design, confirmed by
+  // runs (calibrate_emulated); "profile": the profile grid and simplex polish of every
+  // candidate by forward runs alone (fit.method the polish), kept for comparison.
+  std::string method = "emulator";
+  EmulatorSettings emulator;
   // An effect must lower BIC by more than this: 6 = "strong" evidence (Kass & Raftery 1995).
   // With n ~ 10 observations a spurious one-parameter effect then passes only when it lowers
   // chi2 by more than 6 + ln n (~8.3): p ~ 0.4 % per candidate under the null.

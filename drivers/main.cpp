@@ -372,7 +372,7 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
 
 int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
                  const std::string& out, bool force, int iterations, double bic_margin, int jobs, bool resume,
-                 const std::string& method, int max_steps) {
+                 const std::string& method, int max_steps, int batch, int points_per_parameter) {
   const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
   // the deck with its overrides and the targets checked before the result folder
   tamp::check_target_materials(data, load_deck(data.scenario, data.scenario_overrides));
@@ -380,7 +380,10 @@ int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& s
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::DiagnoseOptions opt;
   opt.fit.runner = &runner;
-  opt.fit.method = method;
+  opt.method = method == "emulator" ? "emulator" : "profile";
+  opt.fit.method = method == "emulator" || method == "profile" ? "nelder-mead" : method;
+  opt.emulator.batch = batch;
+  opt.emulator.points_per_parameter = points_per_parameter;
   opt.baseline_params = split_list(params);
   opt.fit.max_iterations = iterations;
   opt.bic_margin = bic_margin;
@@ -480,7 +483,19 @@ int main(int argc, char** argv) {
                        "How much an effect must lower BIC to be selected (default 6, 'strong' evidence)")
       ->check(CLI::NonNegativeNumber);
   diagnose->add_flag("--force", force, "Overwrite an existing result folder");
-  diagnose->add_option("--method", method, "Fit method of every fit (as for calibrate; default nelder-mead)");
+  std::string diagnose_method = "emulator";
+  int batch = 4, points_per_parameter = 10;
+  diagnose->add_option("--method", diagnose_method,
+                       "emulator (default: every fit on Gaussian-process emulators from a space-filling design, "
+                       "confirmed by runs), profile (a profile grid and a Nelder-Mead polish by runs alone), or "
+                       "the profile with another polish: lm, sbplx, bobyqa")
+      ->check(CLI::IsMember({"emulator", "profile", "nelder-mead", "lm", "sbplx", "bobyqa"}));
+  diagnose->add_option("--batch", batch,
+                       "Emulator: points run per sequential round (default 4; the answer does not depend on --jobs)")
+      ->check(CLI::Range(1, 1024));
+  diagnose->add_option("--points-per-parameter", points_per_parameter,
+                       "Emulator: initial design runs per fitted parameter (default 10)")
+      ->check(CLI::Range(2, 1000));
   diagnose->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
   diagnose->add_option("--max-steps", max_steps, "Most effects composed, one per step (default 3)")
       ->check(CLI::Range(1, 100));
@@ -521,7 +536,9 @@ int main(int argc, char** argv) {
     if (*check) rc = cmd_check(deck, sets);
     if (*compare) rc = cmd_compare(data_path, run_dir);
     if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume);
-    if (*diagnose) rc = cmd_diagnose(data_path, sets, params, out, force, iterations, bic_margin, jobs, resume, method, max_steps);
+    if (*diagnose)
+      rc = cmd_diagnose(data_path, sets, params, out, force, iterations, bic_margin, jobs, resume, diagnose_method,
+                        max_steps, batch, points_per_parameter);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

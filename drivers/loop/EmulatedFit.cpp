@@ -1,0 +1,244 @@
+#include "drivers/loop/EmulatedFit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace tamp::loop {
+
+namespace {
+Eigen::VectorXd clamp01(const Eigen::VectorXd& x) { return x.cwiseMax(0.0).cwiseMin(1.0); }
+
+double chi2_of(const Eigen::VectorXd& y, const Eigen::VectorXd& t, const Eigen::VectorXd& s) {
+  return (y - t).cwiseQuotient(s).squaredNorm();
+}
+
+// The lower confidence bound of a run's chi2 at x (mean - 2 sd, the smooth response's
+// uncertainty only: the nugget is not reduced by running there): the batch's exploration
+// criterion (GP-UCB, Srinivas et al. 2010), each pick taken as believed (Ginsbourger et al. 2010).
+double chi2_lcb(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& t, const Eigen::VectorXd& s,
+                const Eigen::VectorXd& x) {
+  double mean = 0, var = 0;
+  for (size_t i = 0; i < em.size(); ++i) {
+    const auto p = em[i].predict(x);
+    const double s2 = s(static_cast<long>(i)) * s(static_cast<long>(i));
+    const double r = p.mean - t(static_cast<long>(i));
+    mean += (r * r + p.variance) / s2;
+    var += (4 * r * r * p.variance + 2 * p.variance * p.variance) / (s2 * s2);
+  }
+  return mean - 2.0 * std::sqrt(var);
+}
+
+// The minimum of f over the unit box: Nelder-Mead from each start, the box kept by a
+// penalty on the clamped point.
+Eigen::VectorXd box_minimum(const std::function<double(const Eigen::VectorXd&)>& f, const std::vector<Eigen::VectorXd>& starts,
+                            double* fbest) {
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd xb = starts.front();
+  auto g = [&](const Eigen::VectorXd& x) {
+    const Eigen::VectorXd c = clamp01(x);
+    return f(c) + 1e3 * (x - c).squaredNorm();
+  };
+  for (const auto& x0 : starts) {
+    double v = 0;
+    const Eigen::VectorXd x = clamp01(nelder_mead(g, x0, 0.08, 150 + 60 * static_cast<int>(x0.size()), &v));
+    v = f(x);
+    if (v < best) {
+      best = v;
+      xb = x;
+    }
+  }
+  if (fbest) *fbest = best;
+  return xb;
+}
+}  // namespace
+
+EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& t,
+                                   const Eigen::VectorXd& s, const Eigen::VectorXd& x) {
+  EmulatedDeviance d;
+  for (size_t i = 0; i < em.size(); ++i) {
+    const auto p = em[i].predict(x);
+    const double s2 = s(static_cast<long>(i)) * s(static_cast<long>(i));
+    const double v = p.variance + p.nugget;
+    const double r = p.mean - t(static_cast<long>(i));
+    d.chi2 += r * r / (s2 + v);
+    d.deviance += r * r / (s2 + v) + std::log1p(v / s2);
+    d.latent_share = std::max(d.latent_share, p.variance / (s2 + p.nugget));
+  }
+  return d;
+}
+
+EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
+                         int d, const EmulatedFitOptions& opt, const std::vector<Eigen::VectorXd>& start) {
+  const long m = targets.size();
+  EmulatedFit fit;
+  std::vector<Eigen::VectorXd> X;  // successful runs
+  std::vector<Eigen::VectorXd> Y;
+  auto run = [&](const std::vector<Eigen::VectorXd>& pts) {
+    const auto out = simulate(pts);
+    fit.runs += static_cast<int>(pts.size());
+    for (size_t k = 0; k < pts.size(); ++k) {
+      const bool ok = out[k].size() == m && out[k].allFinite();
+      if (!ok) {
+        ++fit.failed;
+        continue;
+      }
+      X.push_back(pts[k]);
+      Y.push_back(out[k]);
+    }
+    return out;
+  };
+  // the initial design: a maximin Latin hypercube, and the start points
+  const int n0 = std::max(2, opt.points_per_parameter * d);
+  const Eigen::MatrixXd D = maximin_lhs(n0, d, opt.seed);
+  std::vector<Eigen::VectorXd> design;
+  for (long i = 0; i < D.rows(); ++i) design.push_back(D.row(i).transpose());
+  for (const auto& s : start) design.push_back(clamp01(s));
+  fit.design_points = static_cast<int>(design.size());
+  run(design);
+
+  auto train = [&] {
+    std::vector<GaussianProcess> em(static_cast<size_t>(m));
+    Eigen::MatrixXd Xm(static_cast<long>(X.size()), d);
+    for (size_t k = 0; k < X.size(); ++k) Xm.row(static_cast<long>(k)) = X[k].transpose();
+    for (long i = 0; i < m; ++i) {
+      Eigen::VectorXd y(static_cast<long>(Y.size()));
+      for (size_t k = 0; k < Y.size(); ++k) y(static_cast<long>(k)) = Y[k](i);
+      em[static_cast<size_t>(i)].fit(Xm, y);
+    }
+    return em;
+  };
+  auto starts_for = [&](const std::vector<GaussianProcess>&) {
+    // the best runs so far and the centre of the box
+    std::vector<size_t> idx(X.size());
+    std::iota(idx.begin(), idx.end(), size_t{0});
+    std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) {
+      return chi2_of(Y[a], targets, sigmas) < chi2_of(Y[b], targets, sigmas);
+    });
+    std::vector<Eigen::VectorXd> s;
+    for (size_t k = 0; k < std::min<size_t>(4, idx.size()); ++k) s.push_back(X[idx[k]]);
+    s.push_back(Eigen::VectorXd::Constant(d, 0.5));
+    return s;
+  };
+
+  if (X.size() < 2) {  // nothing to learn from: every design run failed
+    fit.run_chi2 = std::numeric_limits<double>::infinity();
+    fit.predicted.chi2 = fit.predicted.deviance = std::numeric_limits<double>::infinity();
+    return fit;
+  }
+  std::vector<GaussianProcess> em = train();
+  Eigen::VectorXd xstar;
+  std::vector<Eigen::VectorXd> round_x, round_out;  // per round: the optimum and its run
+  std::vector<double> round_z;
+  for (int round = 0; round < opt.max_rounds; ++round) {
+    // the optimum of the emulators' expected chi2
+    auto deviance = [&](const Eigen::VectorXd& x) { return emulated_deviance(em, targets, sigmas, x).deviance; };
+    xstar = box_minimum(deviance, starts_for(em), nullptr);
+    const EmulatedDeviance at = emulated_deviance(em, targets, sigmas, xstar);
+    std::vector<GaussianProcess::Prediction> pred;
+    for (const auto& g : em) pred.push_back(g.predict(xstar));
+    // the batch: the optimum, then where a believed optimum leaves the lowest confidence bound
+    std::vector<Eigen::VectorXd> batch{xstar};
+    std::vector<GaussianProcess> believed = em;
+    for (int q = 1; q < opt.batch; ++q) {
+      const Eigen::VectorXd& last = batch.back();
+      for (size_t i = 0; i < believed.size(); ++i) believed[i] = believed[i].with_point(last, believed[i].predict(last).mean);
+      auto lcb = [&](const Eigen::VectorXd& x) { return chi2_lcb(believed, targets, sigmas, x); };
+      std::vector<Eigen::VectorXd> st = starts_for(believed);
+      // and a spread of starts around the optimum, so the picks are not all the same point
+      for (int j = 0; j < d; ++j)
+        for (double sgn : {-1.0, 1.0}) {
+          Eigen::VectorXd x = xstar;
+          x(j) = std::min(1.0, std::max(0.0, x(j) + 0.15 * sgn));
+          st.push_back(x);
+        }
+      batch.push_back(box_minimum(lcb, st, nullptr));
+    }
+    const auto out = run(batch);
+    fit.rounds = round + 1;
+    const bool ok = out[0].size() == m && out[0].allFinite();
+    double worst = std::numeric_limits<double>::infinity();
+    if (ok) {
+      worst = 0;
+      for (long i = 0; i < m; ++i) {
+        const auto& p = pred[static_cast<size_t>(i)];
+        worst = std::max(worst, std::fabs(out[0](i) - p.mean) / std::sqrt(p.variance + p.nugget));
+      }
+    }
+    fit.round_predicted.push_back(at.chi2);
+    fit.round_confirmed.push_back(ok ? chi2_of(out[0], targets, sigmas) : std::numeric_limits<double>::infinity());
+    fit.x = xstar;
+    fit.predicted = at;
+    fit.worst_z = worst;
+    // confirmed: the run is what the emulators said it would be, output by output; converged:
+    // and their own uncertainty there is small beside the noise it is compared with
+    fit.confirmed = ok && worst <= opt.confirm_z;
+    fit.converged = fit.confirmed && at.latent_share <= opt.max_latent_share;
+    fit.outputs = ok ? out[0] : Eigen::VectorXd();
+    fit.run_chi2 = fit.round_confirmed.back();
+    round_x.push_back(xstar);
+    round_out.push_back(fit.outputs);
+    round_z.push_back(worst);
+    em = train();  // the new runs join the emulators
+    if (fit.converged) break;
+  }
+  // Not converged within the rounds: of the optima the rounds ran, the one the final
+  // emulators (which know every run) find best; each has a real run.
+  if (!fit.converged && !round_x.empty()) {
+    double best = std::numeric_limits<double>::infinity();
+    for (size_t r = 0; r < round_x.size(); ++r) {
+      const double dv = emulated_deviance(em, targets, sigmas, round_x[r]).deviance;
+      if (round_out[r].size() == m && dv < best) {
+        best = dv;
+        fit.x = round_x[r];
+        fit.outputs = round_out[r];
+        fit.run_chi2 = fit.round_confirmed[r];
+        fit.worst_z = round_z[r];
+        fit.confirmed = round_z[r] <= opt.confirm_z;
+      }
+    }
+  }
+  // the fit as the final emulators see it at x
+  fit.predicted = emulated_deviance(em, targets, sigmas, fit.x);
+  fit.mean.resize(m);
+  fit.sd.resize(m);
+  for (long i = 0; i < m; ++i) {
+    const auto p = em[static_cast<size_t>(i)].predict(fit.x);
+    fit.mean(i) = p.mean;
+    fit.sd(i) = std::sqrt(p.variance + p.nugget);
+  }
+  // the linearised uncertainty of x from the emulators' gradients (central differences),
+  // each output weighted by its observation and predictive variance
+  {
+    const double h = 1e-3;
+    Eigen::MatrixXd J(m, d);
+    Eigen::VectorXd w(m);
+    for (long i = 0; i < m; ++i) {
+      const auto p = em[static_cast<size_t>(i)].predict(fit.x);
+      w(i) = 1.0 / (sigmas(i) * sigmas(i) + p.variance + p.nugget);
+      for (int j = 0; j < d; ++j) {
+        Eigen::VectorXd a = fit.x, b = fit.x;
+        a(j) = std::min(1.0, a(j) + h);
+        b(j) = std::max(0.0, b(j) - h);
+        J(i, j) = (em[static_cast<size_t>(i)].predict(a).mean - em[static_cast<size_t>(i)].predict(b).mean) / (a(j) - b(j));
+      }
+    }
+    const Eigen::MatrixXd F = J.transpose() * w.asDiagonal() * J;
+    fit.cov = (F + 1e-12 * Eigen::MatrixXd::Identity(d, d)).inverse();
+  }
+  // leave-one-out per output, in the observation's sigma
+  fit.loo_rmse_sigma.resize(m);
+  fit.loo_z_rms.resize(m);
+  for (long i = 0; i < m; ++i) {
+    const auto& g = em[static_cast<size_t>(i)];
+    const auto loo = g.leave_one_out();
+    const Eigen::VectorXd e = loo.mean - g.outputs();
+    fit.loo_rmse_sigma(i) = std::sqrt(e.squaredNorm() / e.size()) / sigmas(i);
+    fit.loo_z_rms(i) = std::sqrt(e.cwiseQuotient(loo.sd).squaredNorm() / e.size());
+  }
+  fit.emulators = std::move(em);
+  return fit;
+}
+
+}  // namespace tamp::loop

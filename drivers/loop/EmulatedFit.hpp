@@ -1,0 +1,75 @@
+// A calibration on an emulator (docs/closing-the-loop.md "Emulators"): a space-filling
+// design over a box, a Gaussian process per observed quantity, the fit on the emulators, and
+// runs of the simulator only where they decide something: at the emulator's optimum (the
+// confirmation) and where the emulator is unsure near it, q points at a time.
+//
+// Independent of the engine: the simulator is a function of points in the unit box, so the
+// same code calibrates the particle model (drivers/Calibration.cpp) and the analytic
+// functions of the tests.
+#pragma once
+#include <Eigen/Dense>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "drivers/loop/Emulator.hpp"
+
+namespace tamp::loop {
+
+// The simulator: for each point of the batch (unit box), its outputs (one per observation),
+// or an empty vector for a failed run (NaN, time-out): a failed point, never a crash.
+using UnitSimulator = std::function<std::vector<Eigen::VectorXd>(const std::vector<Eigen::VectorXd>&)>;
+
+struct EmulatedFitOptions {
+  int points_per_parameter = 10;  // the initial design: about 10 runs per input (Loeppky et al. 2009)
+  int batch = 2;                  // q points per sequential round (independent of the workers: the
+                                  // answer is the same whatever their number)
+  int max_rounds = 4;             // sequential rounds at most
+  double confirm_z = 3.0;         // a run confirms the emulator when every output is within this many
+                                  // predictive standard deviations of its prediction
+  double max_latent_share = 1.0;  // converged: at the optimum, every output's emulator variance is at
+                                  // most this share of the variance it is compared with (sigma^2 + nugget)
+  std::uint64_t seed = 1;         // the design's seed
+};
+
+// The fit of the emulators at a point: per output the prediction's variance v (the smooth
+// response's uncertainty and the nugget, the simulator's own jitter) added to the
+// observation's sigma^2. chi2 = sum r^2 / (sigma^2 + v); the deviance adds sum ln(1 + v /
+// sigma^2), the normalisation of the Gaussian likelihood (-2 ln L up to a constant), so that
+// an uncertain emulator is not a better fit: it is chi2 itself when v = 0.
+struct EmulatedDeviance {
+  double chi2 = 0, deviance = 0;
+  double latent_share = 0;  // the largest v_latent / (sigma^2 + nugget) over the outputs
+};
+EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& targets,
+                                   const Eigen::VectorXd& sigmas, const Eigen::VectorXd& x);
+
+// What the fit found, and how far the emulator is to be trusted.
+struct EmulatedFit {
+  Eigen::VectorXd x;              // the fitted point (unit box): the emulators' optimum, last confirmed
+  EmulatedDeviance predicted;     // the final emulators there
+  Eigen::VectorXd mean, sd;       // per output: the final emulators' mean and predictive sd at x
+  Eigen::VectorXd outputs;        // the confirmation run's outputs there (a real run)
+  double run_chi2 = 0;            // its chi2 with the observations' sigma alone
+  bool confirmed = false;         // the run agreed with the prediction (every output within confirm_z)
+  bool converged = false;         // and the emulators' own uncertainty there is small (max_latent_share)
+  double worst_z = 0;             // the largest |output - prediction| / sd of the confirmation
+  int runs = 0;                   // simulator runs (design + rounds), failed ones included
+  int failed = 0;
+  int design_points = 0;          // the initial design
+  int rounds = 0;                 // sequential rounds
+  std::vector<double> round_predicted, round_confirmed;  // per round: emulated chi2 and the run's at the optimum
+  Eigen::MatrixXd cov;            // linearised covariance of x (unit box) from the emulators' gradients
+  // Leave-one-out per output, in units of the observation's sigma: RMS error, and the RMS
+  // of the standardised errors (about 1 when the emulator states its uncertainty honestly).
+  Eigen::VectorXd loo_rmse_sigma, loo_z_rms;
+  std::vector<GaussianProcess> emulators;  // the final emulators, one per output
+};
+
+// Fits `targets` (with `sigmas`) over the d-dimensional unit box. `start`, when given, is
+// a point run already (the current model's fit): it joins the design.
+EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
+                         int d, const EmulatedFitOptions& opt, const std::vector<Eigen::VectorXd>& start = {});
+
+}  // namespace tamp::loop

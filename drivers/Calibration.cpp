@@ -676,25 +676,62 @@ FitResult calibrate_nlopt(const Config&, const ObservationSet&, const std::vecto
 
 // ------------------------------------------------------------------ calibration on emulators
 
+void RunArchive::add(const Config& cfg, const RunOutputs& out) {
+  std::lock_guard<std::mutex> lock(m_);
+  runs_.emplace_back(cfg, out);
+}
+
+std::vector<std::pair<Config, RunOutputs>> RunArchive::runs() const {
+  std::lock_guard<std::mutex> lock(m_);
+  return runs_;
+}
+
+Config canonical_effects(Config cfg) {
+  for (auto& m : cfg.materials) {
+    // air voids 0 stop compaction only where the compaction strain never falls below 0 (a
+    // separating material's loosened grain has eps_v < 0, kernels/SphSolid.hpp)
+    if (m.crush_pressure <= 0 || (m.air_voids <= 0 && m.separation_density <= 0)) {
+      m.crush_pressure = 0;
+      m.air_voids = 0;
+      m.crush_hardening = 0;
+    }
+    if (m.rate_coefficient <= 0) {
+      m.rate_coefficient = 0;
+      m.reference_strain_rate = 1.0;
+    }
+    if (m.remoulded_ratio >= 1) {
+      m.remoulded_ratio = 1.0;
+      m.remoulding_strain = 1.0;
+    }
+  }
+  return cfg;
+}
+
+
 FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, const std::vector<ParameterRange>& ranges,
                              const EmulatorSettings& settings, ForwardRuns& runs, const std::string& seed_label,
-                             const std::vector<std::vector<double>>& start) {
+                             RunArchive* archive, const std::vector<std::string>& nested_off) {
   const int d = static_cast<int>(ranges.size());
   const long n = static_cast<long>(data.observations.size());
   if (d == 0) throw std::invalid_argument("calibrate: no parameters to fit");
   std::vector<double> tlo(d), thi(d);
   for (int j = 0; j < d; ++j) {
     const ParameterRange& r = ranges[static_cast<size_t>(j)];
-    if (!(r.lo > 0) || !(r.hi > r.lo) || !std::isfinite(r.hi))
+    if (!((r.linear ? r.lo >= 0 : r.lo > 0) && r.hi > r.lo && std::isfinite(r.hi)))
       throw std::invalid_argument("calibrate: the range of " + r.name + " is [" + fmt_g(r.lo) + ", " + fmt_g(r.hi) +
-                                  "]; allowed: 0 < lo < hi, finite");
+                                  "]; allowed: 0 < lo < hi (0 <= lo for a linear range), finite");
     (void)get_param(cfg0, r.name);  // a known parameter of the deck
-    tlo[static_cast<size_t>(j)] = to_t(r.name, r.lo);
-    thi[static_cast<size_t>(j)] = to_t(r.name, r.hi);
+    tlo[static_cast<size_t>(j)] = r.linear ? r.lo : to_t(r.name, r.lo);
+    thi[static_cast<size_t>(j)] = r.linear ? r.hi : to_t(r.name, r.hi);
   }
   auto value_at = [&](const Eigen::VectorXd& x, int j) {
     const size_t k = static_cast<size_t>(j);
-    return from_t(ranges[k].name, tlo[k] + x(j) * (thi[k] - tlo[k]));
+    const double t = tlo[k] + x(j) * (thi[k] - tlo[k]);
+    return ranges[k].linear ? t : from_t(ranges[k].name, t);
+  };
+  auto unit_of = [&](double v, int j) {
+    const size_t k = static_cast<size_t>(j);
+    return ((ranges[k].linear ? v : to_t(ranges[k].name, v)) - tlo[k]) / (thi[k] - tlo[k]);
   };
   auto config_at = [&](const Eigen::VectorXd& x) {
     Config c = cfg0;
@@ -726,6 +763,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
       }
       out.push_back(finite ? y : Eigen::VectorXd());
       if (finite) done.emplace_back(pts[k], results[k].outputs);
+      if (archive) archive->add(batch[k], results[k].outputs);
     }
     return out;
   };
@@ -736,18 +774,49 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   o.confirm_z = settings.confirm_z;
   o.max_latent_share = settings.max_latent_share;
   o.seed = std::stoull(deck_key(seed_label), nullptr, 16);
-  std::vector<Eigen::VectorXd> xs;
-  for (const auto& v : start) {
-    if (static_cast<int>(v.size()) != d) throw std::invalid_argument("calibrate_emulated: a start point has the wrong size");
-    Eigen::VectorXd x(d);
-    for (int j = 0; j < d; ++j) {
-      const size_t k = static_cast<size_t>(j);
-      x(j) = (to_t(ranges[k].name, v[k]) - tlo[k]) / (thi[k] - tlo[k]);
+  // Earlier runs in the box: each archived deck read as a point (a parameter outside the box
+  // taken at its "off" value, or mid-range where the effect it belongs to is off), kept when
+  // the deck at that point runs the same physics as the archived one.
+  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> prior;
+  if (archive) {
+    for (const auto& [rc, ro] : archive->runs()) {
+      Config at = cfg0;
+      Eigen::VectorXd x(d);
+      bool inside = true;
+      for (int j = 0; j < d && inside; ++j) {
+        const ParameterRange& r = ranges[static_cast<size_t>(j)];
+        double v = 0;
+        try {
+          v = get_param(rc, r.name);
+        } catch (const std::invalid_argument&) {
+          inside = false;
+          break;
+        }
+        if (!(v >= r.lo && v <= r.hi)) v = r.off >= r.lo && r.off <= r.hi ? r.off : value_at(Eigen::VectorXd::Constant(d, 0.5), j);
+        set_param(at, r.name, v);
+        x(j) = unit_of(v, j);
+      }
+      if (!inside) continue;
+      if (to_toml(canonical_effects(at)) != to_toml(canonical_effects(rc))) continue;
+      const auto res = residuals(data, ro);
+      Eigen::VectorXd y(n);
+      bool finite = true;
+      for (long i = 0; i < n; ++i) {
+        y(i) = res[static_cast<size_t>(i)].model;
+        finite = finite && std::isfinite(y(i));
+      }
+      if (!finite) continue;
+      prior.emplace_back(x, y);
+      done.emplace_back(x, ro);
     }
-    xs.push_back(x);
   }
-  const loop::EmulatedFit ef = loop::emulated_fit(simulate, targets, sigmas, d, o, xs);
-
+  // the nested model's face: the effect's "off" keys at off, their companions mid-range
+  for (int j = 0; j < d; ++j) {
+    const ParameterRange& r = ranges[static_cast<size_t>(j)];
+    if (std::find(nested_off.begin(), nested_off.end(), r.name) == nested_off.end()) continue;
+    o.nested_face.emplace_back(j, r.off >= r.lo && r.off <= r.hi ? unit_of(r.off, j) : 0.5);
+  }
+  const loop::EmulatedFit ef = loop::emulated_fit(simulate, targets, sigmas, d, o, prior);
   FitResult fit;
   fit.n = static_cast<int>(n);
   fit.runs = ef.runs;
@@ -764,7 +833,8 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
     const double v = value_at(ef.x, j);
     const double dt = thi[static_cast<size_t>(j)] - tlo[static_cast<size_t>(j)];
     fit.values.push_back(v);
-    fit.sigmas.push_back(std::sqrt(std::max(0.0, ef.cov(j, j))) * dt * dvalue_dt(ranges[static_cast<size_t>(j)].name, v));
+    const ParameterRange& r = ranges[static_cast<size_t>(j)];
+    fit.sigmas.push_back(std::sqrt(std::max(0.0, ef.cov(j, j))) * dt * (r.linear ? 1.0 : dvalue_dt(r.name, v)));
   }
   // The fit as the emulators see it (docs/closing-the-loop.md "Emulators"): per observation
   // their mean at the optimum, normalised by sigma^2 plus their predictive variance; chi2 is the
@@ -774,6 +844,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   for (const auto& [x, out] : done)
     if (x == ef.x) fit.outputs = out;
   fit.chi2 = ef.predicted.deviance;
+  if (!o.nested_face.empty()) fit.nested_deviance = ef.nested.deviance;
   fit.residuals = residuals(data, fit.outputs);
   const double run_error = rms(fit.residuals);
   for (long i = 0; i < n; ++i) {
@@ -792,6 +863,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   j["chi2"] = ef.predicted.chi2;
   j["deviance"] = ef.predicted.deviance;
   j["latent_share"] = ef.predicted.latent_share;
+  if (!o.nested_face.empty()) j["nested_deviance"] = ef.nested.deviance;
   j["confirmed"] = ef.confirmed;
   j["converged"] = ef.converged;
   j["confirmation_worst_z"] = ef.worst_z;
@@ -831,25 +903,23 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
 namespace {
 const EffectCandidate::KeyRange kCrushPressure{
     "crush_pressure", 2e3, 400e3,
-    "apparent preconsolidation of a soft clay near the surface to a stiff fill, 2-400 kPa (the lab clay: Su 10 kPa)",
-    400e3};
+    "apparent preconsolidation of a soft clay near the surface to a stiff fill, 2-400 kPa (the lab clay: Su 10 kPa)"};
 const EffectCandidate::KeyRange kAirVoids{
-    "air_voids", 0.02, 0.35,
-    "air voids of a compacted to a loosely placed unsaturated soil, 2-35 % (the lab charge: 1526 -> 1835 kg/m3, 17 %)",
-    0.02};
+    "air_voids", 0.0, 0.35,
+    "air voids of a saturated to a loosely placed unsaturated soil, 0-35 % (the lab charge: 1526 -> 1835 kg/m3, 17 %)",
+    true, 0.0};
 const EffectCandidate::KeyRange kRateCoefficient{
-    "rate_coefficient", 0.01, 1.0,
+    "rate_coefficient", 0.0, 1.0,
     "strength gain per log cycle of strain rate, 0.05-0.2 in clays (Biscontin & Pestana 2001; Einav & Randolph 2005), "
-    "widened to 0.01-1 for impact rates",
-    0.01};
+    "widened to 0-1 for impact rates",
+    true, 0.0};
 const EffectCandidate::KeyRange kRemouldedRatio{
-    "remoulded_ratio", 0.1, 0.98, "1 / sensitivity, St 1-10: insensitive to medium-sensitive clays (Skempton & Northey 1952)",
-    0.98};
+    "remoulded_ratio", 0.1, 1.0, "1 / sensitivity, St 1-10: insensitive to medium-sensitive clays (Skempton & Northey 1952)",
+    true, 1.0};
 const EffectCandidate::KeyRange kRemouldingStrain{
     "remoulding_strain", 0.1, 20.0,
     "plastic shear strain to 95 % of the loss: 10-50 in cyclic T-bar tests (Einav & Randolph 2005), down to 0.1 for a "
-    "brittle clay",
-    20.0};
+    "brittle clay"};
 const EffectCandidate::KeyRange kLambda{"lambda", 0.05, 0.6,
                                         "slope of the normal compression line, 0.1-0.5 for soft clays (Wood 1990)"};
 const EffectCandidate::KeyRange kPc0PerSu{"p_c0", 0.5 * 4.0 / 0.9, 2.0 * 4.0 / 0.9,
@@ -1031,9 +1101,11 @@ const std::vector<double>& profile_factors() {
 // The parameters a candidate is fitted with on top of the current model (`with_effect`: the
 // current model with the candidate applied): the current ones, then the effect's own. A model
 // switch replaces the parameters of its material that the new model does not have (Su of a
-// Tresca clay) by its strength key: the same number of parameters as an effect.
+// Tresca clay) by its strength key: the same number of parameters as an effect. The profile
+// method fits an effect's first key only (the others at their catalogue values, as it did
+// before the emulators); the emulator fits them all (`all_keys`).
 std::vector<std::string> candidate_params(const Config& with_effect, const std::vector<std::string>& current_params,
-                                          const StepCandidate& cand) {
+                                          const StepCandidate& cand, bool all_keys) {
   std::vector<std::string> params = current_params;
   if (!cand.effect->model.empty()) {
     const std::string strength = cand.material + "." + cand.effect->strength;
@@ -1043,7 +1115,10 @@ std::vector<std::string> candidate_params(const Config& with_effect, const std::
       if (std::find(params.begin(), params.end(), q) == params.end()) params.push_back(q);
     }
   }
-  for (const auto& [k, v] : cand.effect->fitted) params.push_back(cand.material + "." + k);
+  for (const auto& [k, v] : cand.effect->fitted) {
+    params.push_back(cand.material + "." + k);
+    if (!all_keys) break;
+  }
   return params;
 }
 
@@ -1085,7 +1160,7 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
     log::info("diagnose:   " + key + " = " + fmt_g(cand.effect->grid[i]) + ": chi2 " + fmt_g(row) + " (best " +
               refit_param + " of the scan)");
   }
-  const std::vector<std::string> params = candidate_params(c, current_params, cand);
+  const std::vector<std::string> params = candidate_params(c, current_params, cand, false);
   CalibrateOptions fo = opt;
   fo.max_runs = 6 + 5 * static_cast<int>(params.size());
   fo.simplex_steps.assign(params.size(), 0.1);
@@ -1094,68 +1169,68 @@ FitResult profile_fit(const Config& current, const std::vector<std::string>& cur
   return f;
 }
 
-// The box of a candidate's emulator design (docs/closing-the-loop.md "Emulators"): the
-// effect's own keys over their catalogue ranges; a model switch's strength within a factor 2
-// of its start (from Su); the parameters already in the model from 0.5 to 1.6 times their
-// current value (the strength an effect trades against: the rate test's Su falls to 0.65 of
-// the baseline's), within the catalogue's range of the key where it has one.
+// The box of a candidate's emulator design (docs/closing-the-loop.md "Emulators"), the same
+// for a parameter in every step, so that the runs of one step lie in the boxes of the next:
+// the baseline's parameters over the baseline's box; an effect's keys over their catalogue
+// ranges (its strength linear, with "off" at an end); a model switch's strength within a
+// factor 2 of its start (from Su); any other parameter within a factor 2 of its value.
 std::vector<ParameterRange> candidate_ranges(const Config& with_effect, const std::vector<std::string>& params,
-                                             const StepCandidate& cand) {
+                                             const StepCandidate& cand, const std::vector<ParameterRange>& baseline_box) {
   auto catalogue_range = [](const std::string& key) -> const EffectCandidate::KeyRange* {
     for (const auto* cat : {&effect_catalogue(), &model_switch_catalogue()})
       for (const auto& e : *cat)
         for (const auto& r : e.ranges)
-          if (r.key == key) return &r;
+          if (r.key == key && e.model.empty()) return &r;
     return nullptr;
   };
   std::vector<ParameterRange> out;
   for (const auto& p : params) {
-    const auto dot = p.find('.');
-    const std::string material = p.substr(0, dot), key = p.substr(dot + 1);
+    const std::string key = p.substr(p.find('.') + 1);
     const double v = get_param(with_effect, p);
-    ParameterRange r{p, 0.5 * v, 1.6 * v, "the current fit's value x [0.5, 1.6]"};
-    bool own = false;
-    if (material == cand.material)
-      for (const auto& [k, v0] : cand.effect->fitted) own = own || k == key;
-    const bool strength = material == cand.material && !cand.effect->model.empty() && key == cand.effect->strength;
+    const bool strength = !cand.effect->model.empty() && p == cand.material + "." + cand.effect->strength;
     const EffectCandidate::KeyRange* cr = catalogue_range(key);
-    if (own && cr) {
-      r = {p, cr->lo, cr->hi, cr->source};
+    const auto b = std::find_if(baseline_box.begin(), baseline_box.end(), [&](const ParameterRange& r) { return r.name == p; });
+    if (b != baseline_box.end()) {
+      out.push_back(*b);
     } else if (strength) {
-      r = {p, 0.5 * v, 2.0 * v, cr ? cr->source : std::string("its start within a factor 2")};
-    } else if (cr && cr->key != "p_c0") {
-      const double lo = std::max(r.lo, cr->lo), hi = std::min(r.hi, cr->hi);
-      if (hi > lo) r = {p, lo, hi, r.source + ", within " + fmt_g(cr->lo) + "-" + fmt_g(cr->hi) + " (" + cr->source + ")"};
+      const auto k = std::find_if(cand.effect->ranges.begin(), cand.effect->ranges.end(),
+                                   [&](const EffectCandidate::KeyRange& r) { return r.key == cand.effect->strength; });
+      out.push_back({p, 0.5 * v, 2.0 * v,
+                     k != cand.effect->ranges.end() ? k->source : std::string("its start within a factor 2")});
+    } else if (cr) {
+      out.push_back({p, cr->lo, cr->hi, cr->source, cr->linear, cr->off});
+    } else if (!cand.effect->model.empty() && [&] {
+                 for (const auto& r : cand.effect->ranges)
+                   if (r.key == key) return true;
+                 return false;
+               }()) {
+      for (const auto& r : cand.effect->ranges)
+        if (r.key == key) out.push_back({p, r.lo, r.hi, r.source, r.linear, r.off});
+    } else {
+      out.push_back({p, 0.5 * v, 2.0 * v, "its value within a factor 2"});
     }
-    out.push_back(r);
   }
   return out;
 }
 
 // A candidate fitted on emulators on top of the current model: its design over the
-// current parameters and the effect's (candidate_ranges), seeded by the step and the label.
+// current parameters and the effect's (candidate_ranges), seeded by the step and the label;
+// the runs of the archive inside its box join its design.
 FitResult emulated_candidate_fit(const Config& current, const std::vector<std::string>& current_params,
                                  const StepCandidate& cand, const ObservationSet& data, const DiagnoseOptions& opt,
-                                 int step) {
+                                 int step, const std::vector<ParameterRange>& baseline_box, RunArchive& archive) {
   Config c = current;
   apply_effect(c, cand.material, cand.effect->name);
-  const std::vector<std::string> params = candidate_params(c, current_params, cand);
-  const std::vector<ParameterRange> box = candidate_ranges(c, params, cand);
-  // The anchor: the current fit with the effect at its weakest (a point on the face of the box
-  // nearest the current model), so that the candidate's emulator knows the model it extends.
-  std::vector<std::vector<double>> anchor;
-  if (cand.effect->model.empty()) {
-    std::vector<double> a;
-    for (const auto& r : box) {
-      double v = std::min(r.hi, std::max(r.lo, get_param(c, r.name)));
-      for (const auto& kr : cand.effect->ranges)
-        if (r.name == cand.material + "." + kr.key && kr.weakest > 0) v = kr.weakest;
-      a.push_back(v);
-    }
-    anchor.push_back(a);
-  }
-  return calibrate_emulated(c, data, box, opt.emulator, *opt.fit.runner, "step " + std::to_string(step) + ": " + cand.label,
-                            anchor);
+  const std::vector<std::string> params = candidate_params(c, current_params, cand, true);
+  // the current model is the candidate's box with the effect off: its keys at "off" (the
+  // key that has one; the others are then without effect)
+  std::vector<std::string> off;
+  bool has_off = false;
+  for (const auto& r : cand.effect->ranges) has_off = has_off || r.off >= r.lo;
+  if (has_off && cand.effect->model.empty())
+    for (const auto& [k, v] : cand.effect->fitted) off.push_back(cand.material + "." + k);
+  return calibrate_emulated(c, data, candidate_ranges(c, params, cand, baseline_box), opt.emulator, *opt.fit.runner,
+                            "step " + std::to_string(step) + ": " + cand.label, &archive, off);
 }
 
 // The selected candidate's fit polished again: a fresh simplex from its best point (first
@@ -1197,6 +1272,14 @@ struct DiagnosisStep {
   // reach (its parameters times ln n, with chi2 = 0); NaN for a step that was run.
   double bic_floor = std::numeric_limits<double>::quiet_NaN();
 };
+
+// How far a candidate's fit lowers BIC below the current model's: the current fit's BIC, or
+// for an emulated candidate with an "off" face the current model on the candidate's emulator.
+double bic_below_start(const FitResult& current, const FitResult& f) {
+  if (std::isfinite(f.nested_deviance))
+    return f.nested_deviance + static_cast<double>(current.names.size()) * std::log(static_cast<double>(f.n)) - f.bic();
+  return current.bic() - f.bic();
+}
 
 std::string join_labels(const std::vector<std::string>& labels) {
   if (labels.empty()) return "none";
@@ -1299,13 +1382,14 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   // baseline: a coarse scan (factors 0.5-2 of the deck values), then Nelder-Mead
   const bool emulated = opt.method == "emulator";
   FitResult baseline0;
-  if (emulated) {  // the baseline's parameters within a factor 2 of the deck's values
-    std::vector<ParameterRange> box;
+  RunArchive archive;                     // every run of the diagnosis, for the later steps' designs
+  std::vector<ParameterRange> baseline_box;  // the baseline's parameters within a factor 2 of the deck's values
+  if (emulated) {
     for (const auto& p : opt.baseline_params) {
       const double v = get_param(base, p);
-      box.push_back({p, 0.5 * v, 2.0 * v, "the deck's value within a factor 2"});
+      baseline_box.push_back({p, 0.5 * v, 2.0 * v, "the deck's value within a factor 2"});
     }
-    baseline0 = calibrate_emulated(base, data, box, opt.emulator, runner, "baseline");
+    baseline0 = calibrate_emulated(base, data, baseline_box, opt.emulator, runner, "baseline", &archive);
   } else {
     baseline0 = scan_then_polish(base, data, opt.baseline_params, {0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0}, 0.1,
                                  10 + 8 * static_cast<int>(opt.baseline_params.size()), opt.fit);
@@ -1330,7 +1414,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     for (const auto& cand : remaining) {
       Config c = current_cfg;
       apply_effect(c, cand.material, cand.effect->name);
-      bic_floor = std::min(bic_floor, static_cast<double>(candidate_params(c, current.names, cand).size()) *
+      bic_floor = std::min(bic_floor, static_cast<double>(candidate_params(c, current.names, cand, emulated).size()) *
                                   std::log(static_cast<double>(current.n)));
     }
     if (!(bic_floor < current.bic() - opt.bic_margin)) {
@@ -1351,7 +1435,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     runner.side_by_side(remaining.size(), [&](size_t i) {
       CalibrateOptions inner = opt.fit;
       inner.verbose = false;
-      refits[i] = emulated ? emulated_candidate_fit(current_cfg, current.names, remaining[i], data, opt, k + 1)
+      refits[i] = emulated ? emulated_candidate_fit(current_cfg, current.names, remaining[i], data, opt, k + 1, baseline_box, archive)
                            : profile_fit(current_cfg, current.names, refit_param, remaining[i], data, inner);
     });
     for (size_t i = 0; i < remaining.size(); ++i) st.fits.emplace_back(remaining[i], refits[i]);
@@ -1393,10 +1477,14 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     }
     if (k == 0) error_before = current.error;
     st.start = current;
-    double best = current.bic() - opt.bic_margin;
+    // Selection: the largest fall of BIC below the start, by more than the margin. The start
+    // a candidate is measured against is, where it has one, the current model read on the
+    // candidate's own emulator (its "off" face): both sides of the comparison then come from
+    // one emulator, so that the emulators' different estimates of the jitter do not count.
+    double best = opt.bic_margin;
     for (size_t i = 0; i < st.fits.size(); ++i)
-      if (st.fits[i].second.bic() < best) {
-        best = st.fits[i].second.bic();
+      if (bic_below_start(current, st.fits[i].second) > best) {
+        best = bic_below_start(current, st.fits[i].second);
         st.chosen = static_cast<int>(i);
       }
     if (st.chosen >= 0 && !emulated) {  // (an emulated fit is converged by its confirmation rounds)
@@ -1508,7 +1596,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
       auto cj = fit_json(cand.label, fit);
       cj["material"] = cand.material;
       cj["kind"] = cand.effect->model.empty() ? "effect" : "model switch";
-      cj["bic_below_start"] = st.start.bic() - fit.bic();
+      cj["bic_below_start"] = bic_below_start(st.start, fit);
       p["candidates"].push_back(cj);
     }
     js["path"].push_back(p);

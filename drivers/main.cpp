@@ -483,12 +483,12 @@ int main(int argc, char** argv) {
                        "How much an effect must lower BIC to be selected (default 6, 'strong' evidence)")
       ->check(CLI::NonNegativeNumber);
   diagnose->add_flag("--force", force, "Overwrite an existing result folder");
-  std::string diagnose_method = "emulator";
+  std::string diagnose_method = "profile";
   int batch = 4, points_per_parameter = 10;
   diagnose->add_option("--method", diagnose_method,
-                       "emulator (default: every fit on Gaussian-process emulators from a space-filling design, "
-                       "confirmed by runs), profile (a profile grid and a Nelder-Mead polish by runs alone), or "
-                       "the profile with another polish: lm, sbplx, bobyqa")
+                       "profile (default: a profile grid and a Nelder-Mead polish by runs alone), the profile with "
+                       "another polish (lm, sbplx, bobyqa), or emulator (every fit on Gaussian-process emulators "
+                       "from a space-filling design, confirmed by runs; far fewer runs)")
       ->check(CLI::IsMember({"emulator", "profile", "nelder-mead", "lm", "sbplx", "bobyqa"}));
   diagnose->add_option("--batch", batch,
                        "Emulator: points run per sequential round (default 4; the answer does not depend on --jobs)")

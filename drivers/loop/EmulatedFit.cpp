@@ -70,11 +70,17 @@ EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const
 }
 
 EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
-                         int d, const EmulatedFitOptions& opt, const std::vector<Eigen::VectorXd>& start) {
+                         int d, const EmulatedFitOptions& opt,
+                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior) {
   const long m = targets.size();
   EmulatedFit fit;
   std::vector<Eigen::VectorXd> X;  // successful runs
   std::vector<Eigen::VectorXd> Y;
+  for (const auto& [x, y] : prior) {
+    X.push_back(clamp01(x));
+    Y.push_back(y);
+  }
+  fit.prior_points = static_cast<int>(prior.size());
   auto run = [&](const std::vector<Eigen::VectorXd>& pts) {
     const auto out = simulate(pts);
     fit.runs += static_cast<int>(pts.size());
@@ -89,12 +95,23 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     }
     return out;
   };
-  // the initial design: a maximin Latin hypercube, and the start points
-  const int n0 = std::max(2, opt.points_per_parameter * d);
+  // the initial design: a maximin Latin hypercube of the points the earlier runs leave to do
+  int unexplored = d;
+  if (!prior.empty()) {
+    unexplored = 0;
+    for (int j = 0; j < d; ++j) {
+      double lo = 1, hi = 0;
+      for (const auto& x : X) {
+        lo = std::min(lo, x(j));
+        hi = std::max(hi, x(j));
+      }
+      if (hi - lo < 1e-9) ++unexplored;
+    }
+  }
+  const int n0 = std::max({opt.points_per_parameter * d - fit.prior_points, opt.points_per_parameter * unexplored, 2 * d});
   const Eigen::MatrixXd D = maximin_lhs(n0, d, opt.seed);
   std::vector<Eigen::VectorXd> design;
   for (long i = 0; i < D.rows(); ++i) design.push_back(D.row(i).transpose());
-  for (const auto& s : start) design.push_back(clamp01(s));
   fit.design_points = static_cast<int>(design.size());
   run(design);
 
@@ -201,6 +218,40 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
   }
   // the fit as the final emulators see it at x
   fit.predicted = emulated_deviance(em, targets, sigmas, fit.x);
+  if (!opt.nested_face.empty()) {
+    // the free coordinates searched, the face's fixed
+    std::vector<int> free;
+    for (int j = 0; j < d; ++j)
+      if (std::none_of(opt.nested_face.begin(), opt.nested_face.end(), [&](const auto& f) { return f.first == j; }))
+        free.push_back(j);
+    auto full = [&](const Eigen::VectorXd& z) {
+      Eigen::VectorXd x(d);
+      for (const auto& [j, v] : opt.nested_face) x(j) = v;
+      for (size_t k = 0; k < free.size(); ++k) x(free[k]) = z(static_cast<long>(k));
+      return x;
+    };
+    if (free.empty()) {
+      fit.nested_x = full(Eigen::VectorXd());
+    } else {
+      std::vector<Eigen::VectorXd> starts;
+      Eigen::VectorXd z(static_cast<long>(free.size()));
+      for (size_t k = 0; k < free.size(); ++k) z(static_cast<long>(k)) = fit.x(free[k]);
+      starts.push_back(z);
+      starts.push_back(Eigen::VectorXd::Constant(static_cast<long>(free.size()), 0.5));
+      for (size_t i = 0; i < X.size(); ++i) {  // the runs on the face
+        bool on = true;
+        for (const auto& [j, v] : opt.nested_face) on = on && std::fabs(X[i](j) - v) < 1e-9;
+        if (!on) continue;
+        for (size_t k = 0; k < free.size(); ++k) z(static_cast<long>(k)) = X[i](free[k]);
+        starts.push_back(z);
+        if (starts.size() > 6) break;
+      }
+      const Eigen::VectorXd zb = box_minimum(
+          [&](const Eigen::VectorXd& zz) { return emulated_deviance(em, targets, sigmas, full(zz)).deviance; }, starts, nullptr);
+      fit.nested_x = full(zb);
+    }
+    fit.nested = emulated_deviance(em, targets, sigmas, fit.nested_x);
+  }
   fit.mean.resize(m);
   fit.sd.resize(m);
   for (long i = 0; i < m; ++i) {

@@ -31,6 +31,9 @@ struct EmulatedFitOptions {
   double max_latent_share = 1.0;  // converged: at the optimum, every output's emulator variance is at
                                   // most this share of the variance it is compared with (sigma^2 + nugget)
   std::uint64_t seed = 1;         // the design's seed
+  // A nested model's face (coordinate, fixed unit value): its fit on the final emulators is
+  // reported too (EmulatedFit::nested), e.g. the current model as a candidate's effect off.
+  std::vector<std::pair<int, double>> nested_face;
 };
 
 // The fit of the emulators at a point: per output the prediction's variance v (the smooth
@@ -49,6 +52,8 @@ EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const
 struct EmulatedFit {
   Eigen::VectorXd x;              // the fitted point (unit box): the emulators' optimum, last confirmed
   EmulatedDeviance predicted;     // the final emulators there
+  EmulatedDeviance nested;        // the nested model's best on the final emulators (nested_face)
+  Eigen::VectorXd nested_x;
   Eigen::VectorXd mean, sd;       // per output: the final emulators' mean and predictive sd at x
   Eigen::VectorXd outputs;        // the confirmation run's outputs there (a real run)
   double run_chi2 = 0;            // its chi2 with the observations' sigma alone
@@ -57,7 +62,8 @@ struct EmulatedFit {
   double worst_z = 0;             // the largest |output - prediction| / sd of the confirmation
   int runs = 0;                   // simulator runs (design + rounds), failed ones included
   int failed = 0;
-  int design_points = 0;          // the initial design
+  int design_points = 0;          // the initial design's new points
+  int prior_points = 0;           // earlier runs that joined it
   int rounds = 0;                 // sequential rounds
   std::vector<double> round_predicted, round_confirmed;  // per round: emulated chi2 and the run's at the optimum
   Eigen::MatrixXd cov;            // linearised covariance of x (unit box) from the emulators' gradients
@@ -67,9 +73,12 @@ struct EmulatedFit {
   std::vector<GaussianProcess> emulators;  // the final emulators, one per output
 };
 
-// Fits `targets` (with `sigmas`) over the d-dimensional unit box. `start`, when given, is
-// a point run already (the current model's fit): it joins the design.
+// Fits `targets` (with `sigmas`) over the d-dimensional unit box. `prior`: points run
+// already, with their outputs (earlier fits' runs in this box); they join the design, which
+// adds max(points_per_parameter d - prior, points_per_parameter u, 2 d) new points, u the
+// inputs the prior points leave unexplored (all at one value: an effect never tried).
 EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
-                         int d, const EmulatedFitOptions& opt, const std::vector<Eigen::VectorXd>& start = {});
+                         int d, const EmulatedFitOptions& opt,
+                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior = {});
 
 }  // namespace tamp::loop

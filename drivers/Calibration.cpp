@@ -920,6 +920,9 @@ const EffectCandidate::KeyRange kRemouldingStrain{
     "remoulding_strain", 0.1, 20.0,
     "plastic shear strain to 95 % of the loss: 10-50 in cyclic T-bar tests (Einav & Randolph 2005), down to 0.1 for a "
     "brittle clay"};
+const EffectCandidate::KeyRange kCrushHardening{
+    "crush_hardening", 0.0, 1e6,
+    "0-1 MPa per unit compaction strain (the lab charge's chosen 82 kPa: 4.9 to 20 kPa over its 5 % of air voids)", true};
 const EffectCandidate::KeyRange kLambda{"lambda", 0.05, 0.6,
                                         "slope of the normal compression line, 0.1-0.5 for soft clays (Wood 1990)"};
 const EffectCandidate::KeyRange kPc0PerSu{"p_c0", 0.5 * 4.0 / 0.9, 2.0 * 4.0 / 0.9,
@@ -942,6 +945,27 @@ const std::vector<EffectCandidate>& effect_catalogue() {
        true, {kRemouldedRatio, kRemouldingStrain}},
   };
   return c;
+}
+
+std::vector<ParameterRange> default_ranges(const Config& cfg, const std::vector<std::string>& names) {
+  std::vector<ParameterRange> out;
+  for (const auto& p : names) {
+    const std::string key = p.substr(p.find('.') + 1);
+    const EffectCandidate::KeyRange* cr = key == kCrushHardening.key ? &kCrushHardening : nullptr;
+    for (const auto& e : effect_catalogue())
+      for (const auto& r : e.ranges)
+        if (r.key == key) cr = &r;
+    const double v = get_param(cfg, p);  // a known parameter (throws, naming what is allowed)
+    if (cr && p.rfind("contact.", 0) != 0)
+      out.push_back({p, cr->lo, cr->hi, cr->source, cr->linear, cr->off});
+    else if (v > 0)
+      out.push_back({p, 0.5 * v, 2.0 * v, "the deck's value within a factor 2"});
+    else
+      throw std::invalid_argument("calibrate: parameter " + p + " is " + fmt_g(v) +
+                                  " in the deck and has no catalogue range; allowed: a parameter > 0 (its range is a "
+                                  "factor 2 either side) or an effect's key");
+  }
+  return out;
 }
 
 const std::vector<EffectCandidate>& model_switch_catalogue() {

@@ -165,6 +165,10 @@ FitResult calibrate_emulated(const Config& cfg, const ObservationSet& data, cons
                              const EmulatorSettings& settings, ForwardRuns& runs, const std::string& seed_label,
                              RunArchive* archive = nullptr, const std::vector<std::string>& nested_off = {});
 
+// The ranges `tamp calibrate --method emulator` designs over: an effect's key over its
+// catalogue range (docs/effects.md), any other parameter within a factor 2 of the deck's value.
+std::vector<ParameterRange> default_ranges(const Config& cfg, const std::vector<std::string>& names);
+
 // One entry of the effect catalogue, as the diagnosis tries it: an effect composed with the
 // material's model, or a constitutive-model switch (`model` set), which replaces the model.
 struct EffectCandidate {

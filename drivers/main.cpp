@@ -342,6 +342,10 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
                   const std::string& out, bool force, int iterations, const std::string& method, int jobs, bool resume) {
   const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
   const Config cfg = load_deck(data.scenario, data.scenario_overrides);
+  const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
+  // the parameters and their ranges checked before the result folder
+  const auto ranges = method == "emulator" ? tamp::default_ranges(cfg, names) : std::vector<tamp::ParameterRange>{};
+  for (const auto& p : names) (void)tamp::get_param(cfg, p);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::CalibrateOptions opt;
@@ -349,8 +353,9 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
   opt.max_iterations = iterations;
   opt.method = method;
   opt.runner = &runner;
-  const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
-  const tamp::FitResult f = tamp::calibrate(cfg, data, names, opt);
+  const tamp::FitResult f = method == "emulator"
+                                ? tamp::calibrate_emulated(cfg, data, ranges, tamp::EmulatorSettings{}, runner, "calibrate")
+                                : tamp::calibrate(cfg, data, names, opt);
   nlohmann::ordered_json js;
   js["parameters"] = nlohmann::ordered_json::object();
   for (size_t j = 0; j < f.names.size(); ++j) {
@@ -360,6 +365,7 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
   js["chi2"] = f.chi2;
   js["error"] = f.error;
   js["runs"] = f.runs;
+  if (!f.emulator_json.empty()) js["emulator"] = nlohmann::ordered_json::parse(f.emulator_json);
   js["scenario_overrides"] = data.scenario_overrides;
   js["forward_runs"] = {{"run", runner.runs()}, {"from_cache", runner.cache_hits()}, {"failed", runner.failures()},
                         {"jobs", jobs}, {"ranks", tamp::ranks().size}};
@@ -463,7 +469,9 @@ int main(int argc, char** argv) {
   calibrate->add_option("--out", out, "Result folder")->required();
   calibrate->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations (default 8)");
   calibrate->add_option("--method", method,
-                        "nelder-mead (default), lm, or NLopt's sbplx / bobyqa (bounded, derivative-free)");
+                        "nelder-mead (default), lm, NLopt's sbplx / bobyqa (bounded, derivative-free), or emulator "
+                        "(Gaussian-process emulators over each parameter's range, confirmed by runs)")
+      ->check(CLI::IsMember({"nelder-mead", "lm", "sbplx", "bobyqa", "emulator"}));
   calibrate->add_flag("--force", force, "Overwrite an existing result folder");
   int jobs = 1;
   int max_steps = 3;

@@ -686,6 +686,31 @@ std::vector<std::pair<Config, RunOutputs>> RunArchive::runs() const {
   return runs_;
 }
 
+void RunArchive::count(bool cheap, long runs, double wall_s) {
+  std::lock_guard<std::mutex> lock(m_);
+  (cheap ? cheap_runs_ : full_runs_) += runs;
+  (cheap ? cheap_wall_ : full_wall_) += wall_s;
+}
+long RunArchive::cheap_runs() const {
+  std::lock_guard<std::mutex> lock(m_);
+  return cheap_runs_;
+}
+long RunArchive::full_runs() const {
+  std::lock_guard<std::mutex> lock(m_);
+  return full_runs_;
+}
+double RunArchive::cost_ratio() const {
+  std::lock_guard<std::mutex> lock(m_);
+  if (cheap_runs_ == 0 || full_runs_ == 0 || !(full_wall_ > 0)) return std::numeric_limits<double>::quiet_NaN();
+  return (cheap_wall_ / static_cast<double>(cheap_runs_)) / (full_wall_ / static_cast<double>(full_runs_));
+}
+double RunArchive::default_deck_equivalents() const {
+  const double r = cost_ratio();
+  std::lock_guard<std::mutex> lock(m_);
+  if (cheap_runs_ == 0) return static_cast<double>(full_runs_);
+  return static_cast<double>(full_runs_) + static_cast<double>(cheap_runs_) * (std::isfinite(r) ? r : 1.0);
+}
+
 Config canonical_effects(Config cfg) {
   for (auto& m : cfg.materials) {
     // air voids 0 stop compaction only where the compaction strain never falls below 0 (a
@@ -743,11 +768,17 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
     targets(i) = data.observations[static_cast<size_t>(i)].value;
     sigmas(i) = data.observations[static_cast<size_t>(i)].sigma;
   }
-  std::vector<std::pair<Eigen::VectorXd, RunOutputs>> done;  // every successful run, for the fit's outputs
-  const loop::UnitSimulator simulate = [&](const std::vector<Eigen::VectorXd>& pts) {
+  std::vector<std::pair<Eigen::VectorXd, RunOutputs>> done;  // every successful full run, for the fit's outputs
+  const bool two = !settings.cheap_overrides.empty();
+  auto cheap_of = [&](const Config& c) { return parse_deck(to_toml(c), "the cheap deck", settings.cheap_overrides); };
+  auto simulate_on = [&](const std::vector<Eigen::VectorXd>& pts, bool cheap) {
     std::vector<Config> batch;
-    for (const auto& x : pts) batch.push_back(config_at(x));
+    for (const auto& x : pts) batch.push_back(cheap ? cheap_of(config_at(x)) : config_at(x));
+    const auto t0 = std::chrono::steady_clock::now();
     const auto results = runs.run(batch);
+    if (archive)
+      archive->count(cheap, static_cast<long>(batch.size()),
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     std::vector<Eigen::VectorXd> out;
     for (size_t k = 0; k < pts.size(); ++k) {
       if (!results[k].ok) {
@@ -762,11 +793,13 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
         finite = finite && std::isfinite(y(i));
       }
       out.push_back(finite ? y : Eigen::VectorXd());
-      if (finite) done.emplace_back(pts[k], results[k].outputs);
+      if (finite && !cheap) done.emplace_back(pts[k], results[k].outputs);
       if (archive) archive->add(batch[k], results[k].outputs);
     }
     return out;
   };
+  const loop::UnitSimulator simulate = [&](const std::vector<Eigen::VectorXd>& pts) { return simulate_on(pts, two); };
+  const loop::UnitSimulator simulate_full = [&](const std::vector<Eigen::VectorXd>& pts) { return simulate_on(pts, false); };
   loop::EmulatedFitOptions o;
   o.points_per_parameter = settings.points_per_parameter;
   o.batch = settings.batch;
@@ -777,7 +810,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   // Earlier runs in the box: each archived deck read as a point (a parameter outside the box
   // taken at its "off" value, or mid-range where the effect it belongs to is off), kept when
   // the deck at that point runs the same physics as the archived one.
-  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> prior;
+  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> prior, full_seen, prior_pairs;
   if (archive) {
     for (const auto& [rc, ro] : archive->runs()) {
       Config at = cfg0;
@@ -797,7 +830,10 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
         x(j) = unit_of(v, j);
       }
       if (!inside) continue;
-      if (to_toml(canonical_effects(at)) != to_toml(canonical_effects(rc))) continue;
+      const std::string deck = to_toml(canonical_effects(rc));
+      const bool is_full = deck == to_toml(canonical_effects(at));
+      const bool is_cheap = two && deck == to_toml(canonical_effects(cheap_of(at)));
+      if (!is_full && !is_cheap) continue;
       const auto res = residuals(data, ro);
       Eigen::VectorXd y(n);
       bool finite = true;
@@ -806,9 +842,21 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
         finite = finite && std::isfinite(y(i));
       }
       if (!finite) continue;
+      if (is_full && two) {
+        full_seen.emplace_back(x, y);
+        done.emplace_back(x, ro);
+        continue;
+      }
       prior.emplace_back(x, y);
-      done.emplace_back(x, ro);
+      if (is_full) done.emplace_back(x, ro);
     }
+    // pairs: a full run at a point where a cheap one ran
+    for (const auto& [xf, yf] : full_seen)
+      for (const auto& [xc, yc] : prior)
+        if ((xf - xc).norm() < 1e-12) {
+          prior_pairs.emplace_back(yc, yf);
+          break;
+        }
   }
   // the nested model's face: the effect's "off" keys at off, their companions mid-range
   for (int j = 0; j < d; ++j) {
@@ -816,10 +864,11 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
     if (std::find(nested_off.begin(), nested_off.end(), r.name) == nested_off.end()) continue;
     o.nested_face.emplace_back(j, r.off >= r.lo && r.off <= r.hi ? unit_of(r.off, j) : 0.5);
   }
-  const loop::EmulatedFit ef = loop::emulated_fit(simulate, targets, sigmas, d, o, prior);
+  const loop::EmulatedFit ef = loop::emulated_fit(simulate, targets, sigmas, d, o, prior, two ? &simulate_full : nullptr,
+                                                  prior_pairs);
   FitResult fit;
   fit.n = static_cast<int>(n);
-  fit.runs = ef.runs;
+  fit.runs = ef.runs + ef.full_runs;
   fit.confirmed = ef.converged;
   for (const auto& r : ranges) fit.names.push_back(r.name);
   if (ef.x.size() != d) {  // every run failed
@@ -860,6 +909,17 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   j["runs"] = ef.runs;
   j["failed_runs"] = ef.failed;
   j["batch"] = settings.batch;
+  if (two) {
+    j["cheap_deck"] = settings.cheap_overrides;
+    j["full_runs"] = ef.full_runs;
+    j["cheap_runs"] = ef.runs;
+    j["pairs"] = ef.discrepancy.pairs;
+    j["discrepancy"] = nlohmann::ordered_json::array();
+    for (long i = 0; i < n && ef.discrepancy.pairs > 0; ++i)
+      j["discrepancy"].push_back({{"quantity", quantity_label(data.observations[static_cast<size_t>(i)])},
+                                  {"full_minus_cheap", ef.discrepancy.mean(i)},
+                                  {"sd", std::sqrt(ef.discrepancy.var(i))}});
+  }
   j["chi2"] = ef.predicted.chi2;
   j["deviance"] = ef.predicted.deviance;
   j["latent_share"] = ef.predicted.latent_share;
@@ -1578,6 +1638,12 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
                         {"threads_per_job", runner.options().threads_per_job},
                         {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()}};
   js["forward_runs"]["ranks"] = ranks().size;
+  if (emulated) {
+    js["forward_runs"]["full_deck_runs"] = archive.full_runs();
+    js["forward_runs"]["cheap_deck_runs"] = archive.cheap_runs();
+    js["forward_runs"]["cheap_to_full_cost"] = archive.cost_ratio();
+    js["forward_runs"]["default_deck_run_equivalents"] = archive.default_deck_equivalents();
+  }
   {
     // the shape of the work: batches by their number of runs to do, and the rounds of runs
     // it takes on W workers (each round one run time): what the wall time scales with

@@ -133,10 +133,20 @@ class RunArchive {
  public:
   void add(const Config& cfg, const RunOutputs& out);
   std::vector<std::pair<Config, RunOutputs>> runs() const;
+  // The cost of the runs by fidelity (wall seconds of the batches that ran them, cache hits
+  // included at their cost of zero), for the default-deck run equivalents.
+  void count(bool cheap, long runs, double wall_s);
+  long cheap_runs() const;
+  long full_runs() const;
+  // full runs + cheap runs x (measured cost of a cheap run / a full one); = runs with one deck
+  double default_deck_equivalents() const;
+  double cost_ratio() const;  // cheap / full per run (NaN until both have run)
 
  private:
   mutable std::mutex m_;
   std::vector<std::pair<Config, RunOutputs>> runs_;
+  long cheap_runs_ = 0, full_runs_ = 0;
+  double cheap_wall_ = 0, full_wall_ = 0;
 };
 
 // A deck with every effect that is off written one way (compaction without a crush pressure
@@ -156,6 +166,10 @@ struct EmulatorSettings {
   int max_rounds = 4;
   double confirm_z = 3.0;
   double max_latent_share = 1.0;
+  // Cheap and full decks together (EmulatedFit.hpp "Two fidelities"): when not empty, these
+  // deck overrides (KEY=VALUE, as --set) make the cheap deck that runs the design and the
+  // exploration; each round's optimum runs on both, and the fit is the full deck's.
+  std::vector<std::string> cheap_overrides;
 };
 // `archive`, when given, holds earlier runs: those that are the deck at a point of the box
 // (decks compared after canonical_effects) join the design without being run again, and the

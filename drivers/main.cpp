@@ -338,14 +338,24 @@ tamp::ObservationSet load_data_with_overrides(const std::string& data_path, cons
   return data;
 }
 
+// The cheap deck of --cheap: only with the emulator, and a valid deck (checked before any work).
+void check_cheap_deck(const Config& base, const std::vector<std::string>& cheap, const std::string& method) {
+  if (cheap.empty()) return;
+  if (method != "emulator")
+    throw std::invalid_argument("--cheap " + cheap.front() + ": a cheap deck needs --method emulator (given: " + method + ")");
+  (void)tamp::parse_deck(tamp::to_toml(base), "the cheap deck (--cheap)", cheap);
+}
+
 int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
-                  const std::string& out, bool force, int iterations, const std::string& method, int jobs, bool resume) {
+                  const std::string& out, bool force, int iterations, const std::string& method, int jobs, bool resume,
+                  const std::vector<std::string>& cheap) {
   const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
   const Config cfg = load_deck(data.scenario, data.scenario_overrides);
   const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
   // the parameters and their ranges checked before the result folder
   const auto ranges = method == "emulator" ? tamp::default_ranges(cfg, names) : std::vector<tamp::ParameterRange>{};
   for (const auto& p : names) (void)tamp::get_param(cfg, p);
+  check_cheap_deck(cfg, cheap, method);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::CalibrateOptions opt;
@@ -353,8 +363,10 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
   opt.max_iterations = iterations;
   opt.method = method;
   opt.runner = &runner;
+  tamp::EmulatorSettings settings;
+  settings.cheap_overrides = cheap;
   const tamp::FitResult f = method == "emulator"
-                                ? tamp::calibrate_emulated(cfg, data, ranges, tamp::EmulatorSettings{}, runner, "calibrate")
+                                ? tamp::calibrate_emulated(cfg, data, ranges, settings, runner, "calibrate")
                                 : tamp::calibrate(cfg, data, names, opt);
   nlohmann::ordered_json js;
   js["parameters"] = nlohmann::ordered_json::object();
@@ -378,10 +390,13 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
 
 int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
                  const std::string& out, bool force, int iterations, double bic_margin, int jobs, bool resume,
-                 const std::string& method, int max_steps, int batch, int points_per_parameter) {
+                 const std::string& method, int max_steps, int batch, int points_per_parameter,
+                 const std::vector<std::string>& cheap) {
   const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
   // the deck with its overrides and the targets checked before the result folder
-  tamp::check_target_materials(data, load_deck(data.scenario, data.scenario_overrides));
+  const Config base = load_deck(data.scenario, data.scenario_overrides);
+  tamp::check_target_materials(data, base);
+  check_cheap_deck(base, cheap, method);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs));
   tamp::DiagnoseOptions opt;
@@ -390,6 +405,7 @@ int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& s
   opt.fit.method = method == "emulator" || method == "profile" ? "nelder-mead" : method;
   opt.emulator.batch = batch;
   opt.emulator.points_per_parameter = points_per_parameter;
+  opt.emulator.cheap_overrides = cheap;
   opt.baseline_params = split_list(params);
   opt.fit.max_iterations = iterations;
   opt.bic_margin = bic_margin;
@@ -501,6 +517,13 @@ int main(int argc, char** argv) {
   diagnose->add_option("--batch", batch,
                        "Emulator: points run per sequential round (default 4; the answer does not depend on --jobs)")
       ->check(CLI::Range(1, 1024));
+  std::vector<std::string> cheap;
+  const char* cheap_help =
+      "Emulator: a deck override (KEY=VALUE, as --set) that makes the cheap deck of the design, e.g. "
+      "sph.spacing=0.02 (repeat for several); each round's optimum runs on the full deck too, and the fit "
+      "is the full deck's, the cheap deck's bias learnt from the pairs";
+  diagnose->add_option("--cheap", cheap, cheap_help);
+  calibrate->add_option("--cheap", cheap, cheap_help);
   diagnose->add_option("--points-per-parameter", points_per_parameter,
                        "Emulator: initial design runs per fitted parameter (default 10)")
       ->check(CLI::Range(2, 1000));
@@ -543,10 +566,10 @@ int main(int argc, char** argv) {
     if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile, forward);
     if (*check) rc = cmd_check(deck, sets);
     if (*compare) rc = cmd_compare(data_path, run_dir);
-    if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume);
+    if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume, cheap);
     if (*diagnose)
       rc = cmd_diagnose(data_path, sets, params, out, force, iterations, bic_margin, jobs, resume, diagnose_method,
-                        max_steps, batch, points_per_parameter);
+                        max_steps, batch, points_per_parameter, cheap);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

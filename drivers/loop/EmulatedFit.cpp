@@ -18,10 +18,11 @@ double chi2_of(const Eigen::VectorXd& y, const Eigen::VectorXd& t, const Eigen::
 // uncertainty only: the nugget is not reduced by running there): the batch's exploration
 // criterion (GP-UCB, Srinivas et al. 2010), each pick taken as believed (Ginsbourger et al. 2010).
 double chi2_lcb(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& t, const Eigen::VectorXd& s,
-                const Eigen::VectorXd& x) {
+                const Eigen::VectorXd& x, const Discrepancy* dz) {
   double mean = 0, var = 0;
   for (size_t i = 0; i < em.size(); ++i) {
-    const auto p = em[i].predict(x);
+    auto p = em[i].predict(x);
+    if (dz && dz->pairs > 0) p.mean += dz->mean(static_cast<long>(i));
     const double s2 = s(static_cast<long>(i)) * s(static_cast<long>(i));
     const double r = p.mean - t(static_cast<long>(i));
     mean += (r * r + p.variance) / s2;
@@ -54,26 +55,55 @@ Eigen::VectorXd box_minimum(const std::function<double(const Eigen::VectorXd&)>&
 }
 }  // namespace
 
+Discrepancy learn_discrepancy(const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& pairs,
+                              const std::vector<GaussianProcess>& cheap) {
+  const long m = static_cast<long>(cheap.size());
+  Discrepancy dz{Eigen::VectorXd::Zero(m), Eigen::VectorXd::Zero(m), static_cast<int>(pairs.size())};
+  if (pairs.empty()) return dz;
+  const double p = static_cast<double>(pairs.size());
+  for (const auto& [c, f] : pairs) dz.mean += (f - c) / p;
+  for (long i = 0; i < m; ++i) {
+    double s2 = 0;
+    if (pairs.size() >= 2) {
+      for (const auto& [c, f] : pairs) s2 += std::pow(f(i) - c(i) - dz.mean(i), 2) / (p - 1);
+    } else {
+      s2 = 2.0 * cheap[static_cast<size_t>(i)].nugget_variance();
+    }
+    dz.var(i) = s2 * (1.0 + 1.0 / p);
+  }
+  return dz;
+}
+
 EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& t,
-                                   const Eigen::VectorXd& s, const Eigen::VectorXd& x) {
+                                   const Eigen::VectorXd& s, const Eigen::VectorXd& x, const Discrepancy* dz) {
   EmulatedDeviance d;
   for (size_t i = 0; i < em.size(); ++i) {
-    const auto p = em[i].predict(x);
+    auto p = em[i].predict(x);
+    double dvar = 0;  // the discrepancy's variance: like the emulator's own, more runs (pairs) reduce it
+    if (dz && dz->pairs > 0) {
+      p.mean += dz->mean(static_cast<long>(i));
+      dvar = dz->var(static_cast<long>(i));
+    }
     const double s2 = s(static_cast<long>(i)) * s(static_cast<long>(i));
-    const double v = p.variance + p.nugget;
+    const double v = p.variance + p.nugget + dvar;
     const double r = p.mean - t(static_cast<long>(i));
     d.chi2 += r * r / (s2 + v);
     d.deviance += r * r / (s2 + v) + std::log1p(v / s2);
-    d.latent_share = std::max(d.latent_share, p.variance / (s2 + p.nugget));
+    d.latent_share = std::max(d.latent_share, (p.variance + dvar) / (s2 + p.nugget));
   }
   return d;
 }
 
 EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
                          int d, const EmulatedFitOptions& opt,
-                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior) {
+                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior, const UnitSimulator* full,
+                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior_pairs) {
   const long m = targets.size();
   EmulatedFit fit;
+  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> pairs = prior_pairs;  // (cheap, full) outputs
+  Discrepancy dz;
+  const Discrepancy* dzp = full ? &dz : nullptr;
+  auto ok_out = [&](const Eigen::VectorXd& y) { return y.size() == m && y.allFinite(); };
   std::vector<Eigen::VectorXd> X;  // successful runs
   std::vector<Eigen::VectorXd> Y;
   for (const auto& [x, y] : prior) {
@@ -145,23 +175,45 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     return fit;
   }
   std::vector<GaussianProcess> em = train();
+  // two fidelities: a first pair at the cheap emulators' optimum when none is known
+  auto run_full = [&](const Eigen::VectorXd& x) {
+    const auto out = (*full)({x});
+    ++fit.full_runs;
+    return out.empty() ? Eigen::VectorXd() : out[0];
+  };
+  if (full && pairs.empty()) {
+    const Eigen::VectorXd x0 = box_minimum(
+        [&](const Eigen::VectorXd& x) { return emulated_deviance(em, targets, sigmas, x).deviance; }, starts_for(em), nullptr);
+    const auto c0 = run({x0});
+    const Eigen::VectorXd f0 = run_full(x0);
+    if (ok_out(c0[0]) && ok_out(f0)) pairs.emplace_back(c0[0], f0);
+    em = train();
+  }
+  if (full) dz = learn_discrepancy(pairs, em);
   Eigen::VectorXd xstar;
   std::vector<Eigen::VectorXd> round_x, round_out;  // per round: the optimum and its run
   std::vector<double> round_z;
   for (int round = 0; round < opt.max_rounds; ++round) {
     // the optimum of the emulators' expected chi2
-    auto deviance = [&](const Eigen::VectorXd& x) { return emulated_deviance(em, targets, sigmas, x).deviance; };
+    auto deviance = [&](const Eigen::VectorXd& x) { return emulated_deviance(em, targets, sigmas, x, dzp).deviance; };
     xstar = box_minimum(deviance, starts_for(em), nullptr);
-    const EmulatedDeviance at = emulated_deviance(em, targets, sigmas, xstar);
-    std::vector<GaussianProcess::Prediction> pred;
-    for (const auto& g : em) pred.push_back(g.predict(xstar));
+    const EmulatedDeviance at = emulated_deviance(em, targets, sigmas, xstar, dzp);
+    std::vector<GaussianProcess::Prediction> pred;  // of the simulator the fit is for
+    for (size_t i = 0; i < em.size(); ++i) {
+      auto p = em[i].predict(xstar);
+      if (dzp && dz.pairs > 0) {
+        p.mean += dz.mean(static_cast<long>(i));
+        p.nugget += dz.var(static_cast<long>(i));
+      }
+      pred.push_back(p);
+    }
     // the batch: the optimum, then where a believed optimum leaves the lowest confidence bound
     std::vector<Eigen::VectorXd> batch{xstar};
     std::vector<GaussianProcess> believed = em;
     for (int q = 1; q < opt.batch; ++q) {
       const Eigen::VectorXd& last = batch.back();
       for (size_t i = 0; i < believed.size(); ++i) believed[i] = believed[i].with_point(last, believed[i].predict(last).mean);
-      auto lcb = [&](const Eigen::VectorXd& x) { return chi2_lcb(believed, targets, sigmas, x); };
+      auto lcb = [&](const Eigen::VectorXd& x) { return chi2_lcb(believed, targets, sigmas, x, dzp); };
       std::vector<Eigen::VectorXd> st = starts_for(believed);
       // and a spread of starts around the optimum, so the picks are not all the same point
       for (int j = 0; j < d; ++j)
@@ -172,7 +224,12 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
         }
       batch.push_back(box_minimum(lcb, st, nullptr));
     }
-    const auto out = run(batch);
+    auto out = run(batch);
+    if (full) {  // the optimum on the full simulator too: the confirmation, and a pair
+      const Eigen::VectorXd f = run_full(xstar);
+      if (ok_out(out[0]) && ok_out(f)) pairs.emplace_back(out[0], f);
+      out[0] = f;
+    }
     fit.rounds = round + 1;
     const bool ok = out[0].size() == m && out[0].allFinite();
     double worst = std::numeric_limits<double>::infinity();
@@ -198,6 +255,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     round_out.push_back(fit.outputs);
     round_z.push_back(worst);
     em = train();  // the new runs join the emulators
+    if (full) dz = learn_discrepancy(pairs, em);
     if (fit.converged) break;
   }
   // Not converged within the rounds: of the optima the rounds ran, the one the final
@@ -205,7 +263,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
   if (!fit.converged && !round_x.empty()) {
     double best = std::numeric_limits<double>::infinity();
     for (size_t r = 0; r < round_x.size(); ++r) {
-      const double dv = emulated_deviance(em, targets, sigmas, round_x[r]).deviance;
+      const double dv = emulated_deviance(em, targets, sigmas, round_x[r], dzp).deviance;
       if (round_out[r].size() == m && dv < best) {
         best = dv;
         fit.x = round_x[r];
@@ -217,21 +275,21 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     }
   }
   // the fit as the final emulators see it at x
-  fit.predicted = emulated_deviance(em, targets, sigmas, fit.x);
+  fit.predicted = emulated_deviance(em, targets, sigmas, fit.x, dzp);
   if (!opt.nested_face.empty()) {
     // the free coordinates searched, the face's fixed
     std::vector<int> free;
     for (int j = 0; j < d; ++j)
       if (std::none_of(opt.nested_face.begin(), opt.nested_face.end(), [&](const auto& f) { return f.first == j; }))
         free.push_back(j);
-    auto full = [&](const Eigen::VectorXd& z) {
+    auto on_face = [&](const Eigen::VectorXd& z) {
       Eigen::VectorXd x(d);
       for (const auto& [j, v] : opt.nested_face) x(j) = v;
       for (size_t k = 0; k < free.size(); ++k) x(free[k]) = z(static_cast<long>(k));
       return x;
     };
     if (free.empty()) {
-      fit.nested_x = full(Eigen::VectorXd());
+      fit.nested_x = on_face(Eigen::VectorXd());
     } else {
       std::vector<Eigen::VectorXd> starts;
       Eigen::VectorXd z(static_cast<long>(free.size()));
@@ -247,18 +305,21 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
         if (starts.size() > 6) break;
       }
       const Eigen::VectorXd zb = box_minimum(
-          [&](const Eigen::VectorXd& zz) { return emulated_deviance(em, targets, sigmas, full(zz)).deviance; }, starts, nullptr);
-      fit.nested_x = full(zb);
+          [&](const Eigen::VectorXd& zz) { return emulated_deviance(em, targets, sigmas, on_face(zz), dzp).deviance; }, starts,
+          nullptr);
+      fit.nested_x = on_face(zb);
     }
-    fit.nested = emulated_deviance(em, targets, sigmas, fit.nested_x);
+    fit.nested = emulated_deviance(em, targets, sigmas, fit.nested_x, dzp);
   }
   fit.mean.resize(m);
   fit.sd.resize(m);
   for (long i = 0; i < m; ++i) {
     const auto p = em[static_cast<size_t>(i)].predict(fit.x);
-    fit.mean(i) = p.mean;
-    fit.sd(i) = std::sqrt(p.variance + p.nugget);
+    const bool shift = dzp && dz.pairs > 0;
+    fit.mean(i) = p.mean + (shift ? dz.mean(i) : 0.0);
+    fit.sd(i) = std::sqrt(p.variance + p.nugget + (shift ? dz.var(i) : 0.0));
   }
+  fit.discrepancy = dz;
   // the linearised uncertainty of x from the emulators' gradients (central differences),
   // each output weighted by its observation and predictive variance
   {
@@ -267,7 +328,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     Eigen::VectorXd w(m);
     for (long i = 0; i < m; ++i) {
       const auto p = em[static_cast<size_t>(i)].predict(fit.x);
-      w(i) = 1.0 / (sigmas(i) * sigmas(i) + p.variance + p.nugget);
+      w(i) = 1.0 / (sigmas(i) * sigmas(i) + p.variance + p.nugget + (dzp && dz.pairs > 0 ? dz.var(i) : 0.0));
       for (int j = 0; j < d; ++j) {
         Eigen::VectorXd a = fit.x, b = fit.x;
         a(j) = std::min(1.0, a(j) + h);

@@ -41,12 +41,27 @@ struct EmulatedFitOptions {
 // observation's sigma^2. chi2 = sum r^2 / (sigma^2 + v); the deviance adds sum ln(1 + v /
 // sigma^2), the normalisation of the Gaussian likelihood (-2 ln L up to a constant), so that
 // an uncertain emulator is not a better fit: it is chi2 itself when v = 0.
+// Two fidelities (Kennedy & O'Hagan 2000, with the regression coefficient 1 and a constant
+// discrepancy, the simplest of their autoregressive models): the emulators learn a cheap
+// simulator; the full one is the cheap one plus a discrepancy per output, learnt from pairs of
+// runs of both at the same point: its mean, and its variance, the pairs' scatter s^2 (1 + 1/p)
+// (with one pair, s^2 is twice the cheap emulator's nugget: the jitter of two runs).
+struct Discrepancy {
+  Eigen::VectorXd mean, var;
+  int pairs = 0;
+};
+Discrepancy learn_discrepancy(const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& pairs,
+                              const std::vector<GaussianProcess>& cheap);
+
 struct EmulatedDeviance {
   double chi2 = 0, deviance = 0;
   double latent_share = 0;  // the largest v_latent / (sigma^2 + nugget) over the outputs
 };
+// With `dz`, of the full simulator: the emulators' mean plus the discrepancy, their variance
+// plus its.
 EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& targets,
-                                   const Eigen::VectorXd& sigmas, const Eigen::VectorXd& x);
+                                   const Eigen::VectorXd& sigmas, const Eigen::VectorXd& x,
+                                   const Discrepancy* dz = nullptr);
 
 // What the fit found, and how far the emulator is to be trusted.
 struct EmulatedFit {
@@ -71,14 +86,24 @@ struct EmulatedFit {
   // of the standardised errors (about 1 when the emulator states its uncertainty honestly).
   Eigen::VectorXd loo_rmse_sigma, loo_z_rms;
   std::vector<GaussianProcess> emulators;  // the final emulators, one per output
+  // Two fidelities: the runs of the full simulator (one per round, at the optimum; the
+  // outputs and run_chi2 above are its), and the discrepancy learnt.
+  int full_runs = 0;
+  Discrepancy discrepancy;
 };
 
 // Fits `targets` (with `sigmas`) over the d-dimensional unit box. `prior`: points run
 // already, with their outputs (earlier fits' runs in this box); they join the design, which
 // adds max(points_per_parameter d - prior, points_per_parameter u, 2 d) new points, u the
 // inputs the prior points leave unexplored (all at one value: an effect never tried).
+// `full`, when given, is the full simulator and `simulate` a cheap one: the design and the
+// exploration run cheap, each round's optimum runs on both (a pair), and the fit, its
+// confirmation and its deviance are the full simulator's (cheap emulators plus the
+// discrepancy). `prior_pairs`: (cheap, full) outputs of pairs run already.
 EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
                          int d, const EmulatedFitOptions& opt,
-                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior = {});
+                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior = {},
+                         const UnitSimulator* full = nullptr,
+                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior_pairs = {});
 
 }  // namespace tamp::loop

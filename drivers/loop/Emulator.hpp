@@ -51,6 +51,7 @@ class GaussianProcess {
   int dims() const { return static_cast<int>(X_.cols()); }
   const Eigen::VectorXd& length_scales() const { return ell_; }
   double nugget_ratio() const { return g_; }
+  double nugget_variance() const { return g_ * s2_ * scale_ * scale_; }
   double process_variance() const { return s2_ * scale_ * scale_; }
   const Eigen::MatrixXd& inputs() const { return X_; }
   const Eigen::VectorXd& outputs() const { return y_; }

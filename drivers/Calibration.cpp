@@ -810,7 +810,8 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   // Earlier runs in the box: each archived deck read as a point (a parameter outside the box
   // taken at its "off" value, or mid-range where the effect it belongs to is off), kept when
   // the deck at that point runs the same physics as the archived one.
-  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> prior, full_seen, prior_pairs;
+  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> prior, full_seen;
+  std::vector<loop::DiscrepancyPair> prior_pairs;
   if (archive) {
     for (const auto& [rc, ro] : archive->runs()) {
       Config at = cfg0;
@@ -854,7 +855,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
     for (const auto& [xf, yf] : full_seen)
       for (const auto& [xc, yc] : prior)
         if ((xf - xc).norm() < 1e-12) {
-          prior_pairs.emplace_back(yc, yf);
+          prior_pairs.push_back({xf, yc, yf});
           break;
         }
   }
@@ -915,10 +916,11 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
     j["cheap_runs"] = ef.runs;
     j["pairs"] = ef.discrepancy.pairs;
     j["discrepancy"] = nlohmann::ordered_json::array();
-    for (long i = 0; i < n && ef.discrepancy.pairs > 0; ++i)
+    j["discrepancy_linear"] = ef.discrepancy.linear;
+    for (long i = 0; i < n && ef.discrepancy.pairs > 0; ++i)  // at the fit
       j["discrepancy"].push_back({{"quantity", quantity_label(data.observations[static_cast<size_t>(i)])},
-                                  {"full_minus_cheap", ef.discrepancy.mean(i)},
-                                  {"sd", std::sqrt(ef.discrepancy.var(i))}});
+                                  {"full_minus_cheap", ef.discrepancy.mean(i, ef.x)},
+                                  {"sd", std::sqrt(ef.discrepancy.var(i, ef.x))}});
   }
   j["chi2"] = ef.predicted.chi2;
   j["deviance"] = ef.predicted.deviance;

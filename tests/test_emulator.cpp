@@ -144,11 +144,50 @@ TEST_CASE("Emulator: a cheap simulator's bias is learnt from pairs of runs and n
   const tamp::loop::UnitSimulator full_sim = full;
   const auto both = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full_sim);
   INFO("full runs " << both.full_runs << ", pairs " << both.discrepancy.pairs);
-  CHECK(both.discrepancy.mean(0) == Approx(-0.10).margin(1e-6));
-  CHECK(both.discrepancy.mean(1) == Approx(0.05).margin(1e-6));
+  CHECK(both.discrepancy.mean(0, both.x) == Approx(-0.10).margin(1e-6));
+  CHECK(both.discrepancy.mean(1, both.x) == Approx(0.05).margin(1e-6));
   CHECK(both.x(0) == Approx(0.4).margin(0.001));
   CHECK(both.x(1) == Approx(0.6).margin(0.001));
   CHECK(both.run_chi2 < 0.1);  // the full run at the fit
   CHECK(both.converged);
   CHECK(both.full_runs <= 5);
+}
+
+TEST_CASE("Emulator: a cheap simulator's bias that varies over the box is learnt linearly once there are enough pairs",
+          "[loop][emulator]") {
+  // The cheap simulator's first output is off by 0.05 + 0.3 x1 (5 to 35 sigma over the box), so
+  // a constant discrepancy cannot serve everywhere. From d + 3 = 5 pairs on, the discrepancy is
+  // fitted linearly (exact here); the fit, made to run all its 8 rounds (9 pairs), lands on the
+  // truth with the linear discrepancy.
+  auto full = [](const std::vector<Eigen::VectorXd>& pts) {
+    std::vector<Eigen::VectorXd> out;
+    for (const auto& x : pts) out.push_back(x);
+    return out;
+  };
+  auto cheap = [](const std::vector<Eigen::VectorXd>& pts) {
+    std::vector<Eigen::VectorXd> out;
+    for (const auto& x : pts) {
+      Eigen::VectorXd y = x;
+      y(0) += 0.05 + 0.3 * x(1);
+      out.push_back(y);
+    }
+    return out;
+  };
+  Eigen::VectorXd t(2), s(2);
+  t << 0.4, 0.6;
+  s << 0.01, 0.01;
+  tamp::loop::EmulatedFitOptions o;
+  o.seed = 5;
+  o.max_rounds = 8;
+  o.max_latent_share = 0;  // never converged: all 8 rounds
+  const tamp::loop::UnitSimulator full_sim = full;
+  const auto fit = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full_sim);
+  INFO("full runs " << fit.full_runs << ", pairs " << fit.discrepancy.pairs << ", x " << fit.x.transpose());
+  CHECK(fit.x(0) == Approx(0.4).margin(0.003));
+  CHECK(fit.x(1) == Approx(0.6).margin(0.003));
+  CHECK(fit.run_chi2 < 1);
+  CHECK(fit.discrepancy.pairs == 9);
+  REQUIRE(fit.discrepancy.linear);
+  CHECK(fit.discrepancy.mean(0, fit.x) == Approx(-(0.05 + 0.3 * fit.x(1))).margin(1e-6));
+  CHECK(fit.discrepancy.mean(1, fit.x) == Approx(0.0).margin(1e-6));
 }

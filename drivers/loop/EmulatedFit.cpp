@@ -22,7 +22,7 @@ double chi2_lcb(const std::vector<GaussianProcess>& em, const Eigen::VectorXd& t
   double mean = 0, var = 0;
   for (size_t i = 0; i < em.size(); ++i) {
     auto p = em[i].predict(x);
-    if (dz && dz->pairs > 0) p.mean += dz->mean(static_cast<long>(i));
+    if (dz && dz->pairs > 0) p.mean += dz->mean(static_cast<long>(i), x);
     const double s2 = s(static_cast<long>(i)) * s(static_cast<long>(i));
     const double r = p.mean - t(static_cast<long>(i));
     mean += (r * r + p.variance) / s2;
@@ -55,21 +55,45 @@ Eigen::VectorXd box_minimum(const std::function<double(const Eigen::VectorXd&)>&
 }
 }  // namespace
 
-Discrepancy learn_discrepancy(const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& pairs,
-                              const std::vector<GaussianProcess>& cheap) {
+double Discrepancy::mean(long i, const Eigen::VectorXd& x) const {
+  if (pairs == 0) return 0.0;
+  if (!linear) return coef(i, 0);
+  return coef(i, 0) + coef.row(i).tail(x.size()).dot(x);
+}
+
+double Discrepancy::var(long i, const Eigen::VectorXd& x) const {
+  if (pairs == 0) return 0.0;
+  if (!linear) return s2(i) * (1.0 + 1.0 / pairs);
+  Eigen::VectorXd h(x.size() + 1);
+  h(0) = 1.0;
+  h.tail(x.size()) = x;
+  return s2(i) * (1.0 + h.dot(HtHi * h));
+}
+
+Discrepancy learn_discrepancy(const std::vector<DiscrepancyPair>& pairs, const std::vector<GaussianProcess>& cheap) {
   const long m = static_cast<long>(cheap.size());
-  Discrepancy dz{Eigen::VectorXd::Zero(m), Eigen::VectorXd::Zero(m), static_cast<int>(pairs.size())};
+  Discrepancy dz;
+  dz.pairs = static_cast<int>(pairs.size());
   if (pairs.empty()) return dz;
-  const double p = static_cast<double>(pairs.size());
-  for (const auto& [c, f] : pairs) dz.mean += (f - c) / p;
+  const long d = pairs.front().x.size(), p = static_cast<long>(pairs.size());
+  dz.linear = p >= d + 3;
+  const long q = dz.linear ? d + 1 : 1;
+  Eigen::MatrixXd H(p, q);
+  Eigen::MatrixXd D(p, m);
+  for (long k = 0; k < p; ++k) {
+    H(k, 0) = 1.0;
+    if (dz.linear) H.row(k).tail(d) = pairs[static_cast<size_t>(k)].x.transpose();
+    D.row(k) = (pairs[static_cast<size_t>(k)].full - pairs[static_cast<size_t>(k)].cheap).transpose();
+  }
+  dz.HtHi = (H.transpose() * H + 1e-10 * Eigen::MatrixXd::Identity(q, q)).inverse();
+  dz.coef = (dz.HtHi * H.transpose() * D).transpose();  // m x q
+  dz.s2.resize(m);
   for (long i = 0; i < m; ++i) {
-    double s2 = 0;
-    if (pairs.size() >= 2) {
-      for (const auto& [c, f] : pairs) s2 += std::pow(f(i) - c(i) - dz.mean(i), 2) / (p - 1);
+    if (p > q) {
+      dz.s2(i) = (D.col(i) - H * dz.coef.row(i).transpose()).squaredNorm() / static_cast<double>(p - q);
     } else {
-      s2 = 2.0 * cheap[static_cast<size_t>(i)].nugget_variance();
+      dz.s2(i) = 2.0 * cheap[static_cast<size_t>(i)].nugget_variance();
     }
-    dz.var(i) = s2 * (1.0 + 1.0 / p);
   }
   return dz;
 }
@@ -81,8 +105,8 @@ EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const
     auto p = em[i].predict(x);
     double dvar = 0;  // the discrepancy's variance: like the emulator's own, more runs (pairs) reduce it
     if (dz && dz->pairs > 0) {
-      p.mean += dz->mean(static_cast<long>(i));
-      dvar = dz->var(static_cast<long>(i));
+      p.mean += dz->mean(static_cast<long>(i), x);
+      dvar = dz->var(static_cast<long>(i), x);
     }
     const double s2 = s(static_cast<long>(i)) * s(static_cast<long>(i));
     const double v = p.variance + p.nugget + dvar;
@@ -97,10 +121,10 @@ EmulatedDeviance emulated_deviance(const std::vector<GaussianProcess>& em, const
 EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
                          int d, const EmulatedFitOptions& opt,
                          const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior, const UnitSimulator* full,
-                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior_pairs) {
+                         const std::vector<DiscrepancyPair>& prior_pairs) {
   const long m = targets.size();
   EmulatedFit fit;
-  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> pairs = prior_pairs;  // (cheap, full) outputs
+  std::vector<DiscrepancyPair> pairs = prior_pairs;
   Discrepancy dz;
   const Discrepancy* dzp = full ? &dz : nullptr;
   auto ok_out = [&](const Eigen::VectorXd& y) { return y.size() == m && y.allFinite(); };
@@ -186,7 +210,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
         [&](const Eigen::VectorXd& x) { return emulated_deviance(em, targets, sigmas, x).deviance; }, starts_for(em), nullptr);
     const auto c0 = run({x0});
     const Eigen::VectorXd f0 = run_full(x0);
-    if (ok_out(c0[0]) && ok_out(f0)) pairs.emplace_back(c0[0], f0);
+    if (ok_out(c0[0]) && ok_out(f0)) pairs.push_back({x0, c0[0], f0});
     em = train();
   }
   if (full) dz = learn_discrepancy(pairs, em);
@@ -202,8 +226,8 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     for (size_t i = 0; i < em.size(); ++i) {
       auto p = em[i].predict(xstar);
       if (dzp && dz.pairs > 0) {
-        p.mean += dz.mean(static_cast<long>(i));
-        p.nugget += dz.var(static_cast<long>(i));
+        p.mean += dz.mean(static_cast<long>(i), xstar);
+        p.nugget += dz.var(static_cast<long>(i), xstar);
       }
       pred.push_back(p);
     }
@@ -227,7 +251,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     auto out = run(batch);
     if (full) {  // the optimum on the full simulator too: the confirmation, and a pair
       const Eigen::VectorXd f = run_full(xstar);
-      if (ok_out(out[0]) && ok_out(f)) pairs.emplace_back(out[0], f);
+      if (ok_out(out[0]) && ok_out(f)) pairs.push_back({xstar, out[0], f});
       out[0] = f;
     }
     fit.rounds = round + 1;
@@ -316,8 +340,8 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
   for (long i = 0; i < m; ++i) {
     const auto p = em[static_cast<size_t>(i)].predict(fit.x);
     const bool shift = dzp && dz.pairs > 0;
-    fit.mean(i) = p.mean + (shift ? dz.mean(i) : 0.0);
-    fit.sd(i) = std::sqrt(p.variance + p.nugget + (shift ? dz.var(i) : 0.0));
+    fit.mean(i) = p.mean + (shift ? dz.mean(i, fit.x) : 0.0);
+    fit.sd(i) = std::sqrt(p.variance + p.nugget + (shift ? dz.var(i, fit.x) : 0.0));
   }
   fit.discrepancy = dz;
   // the linearised uncertainty of x from the emulators' gradients (central differences),
@@ -328,7 +352,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     Eigen::VectorXd w(m);
     for (long i = 0; i < m; ++i) {
       const auto p = em[static_cast<size_t>(i)].predict(fit.x);
-      w(i) = 1.0 / (sigmas(i) * sigmas(i) + p.variance + p.nugget + (dzp && dz.pairs > 0 ? dz.var(i) : 0.0));
+      w(i) = 1.0 / (sigmas(i) * sigmas(i) + p.variance + p.nugget + (dzp && dz.pairs > 0 ? dz.var(i, fit.x) : 0.0));
       for (int j = 0; j < d; ++j) {
         Eigen::VectorXd a = fit.x, b = fit.x;
         a(j) = std::min(1.0, a(j) + h);

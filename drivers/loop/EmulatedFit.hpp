@@ -41,17 +41,25 @@ struct EmulatedFitOptions {
 // observation's sigma^2. chi2 = sum r^2 / (sigma^2 + v); the deviance adds sum ln(1 + v /
 // sigma^2), the normalisation of the Gaussian likelihood (-2 ln L up to a constant), so that
 // an uncertain emulator is not a better fit: it is chi2 itself when v = 0.
-// Two fidelities (Kennedy & O'Hagan 2000, with the regression coefficient 1 and a constant
-// discrepancy, the simplest of their autoregressive models): the emulators learn a cheap
-// simulator; the full one is the cheap one plus a discrepancy per output, learnt from pairs of
-// runs of both at the same point: its mean, and its variance, the pairs' scatter s^2 (1 + 1/p)
-// (with one pair, s^2 is twice the cheap emulator's nugget: the jitter of two runs).
-struct Discrepancy {
-  Eigen::VectorXd mean, var;
-  int pairs = 0;
+// Two fidelities (Kennedy & O'Hagan 2000, their autoregressive model with the coefficient 1):
+// the emulators learn a cheap simulator; the full one is the cheap one plus a discrepancy per
+// output, learnt from pairs of runs of both at the same point. With few pairs (fewer than d +
+// 3) the discrepancy is a constant: the pairs' mean, its variance their scatter s^2 (1 + 1/p)
+// (one pair: s^2 twice the cheap emulator's nugget, the jitter of two runs). With more, it is
+// linear in x by least squares, its variance s^2 (1 + h^T (H^T H)^-1 h) at x, h = (1, x).
+struct DiscrepancyPair {
+  Eigen::VectorXd x, cheap, full;
 };
-Discrepancy learn_discrepancy(const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& pairs,
-                              const std::vector<GaussianProcess>& cheap);
+struct Discrepancy {
+  int pairs = 0;
+  bool linear = false;
+  Eigen::MatrixXd coef;   // outputs x (1 + d): the mean is coef h(x)
+  Eigen::VectorXd s2;     // per output, the scatter about that mean
+  Eigen::MatrixXd HtHi;   // (H^T H)^-1 of the pairs' h
+  double mean(long i, const Eigen::VectorXd& x) const;
+  double var(long i, const Eigen::VectorXd& x) const;
+};
+Discrepancy learn_discrepancy(const std::vector<DiscrepancyPair>& pairs, const std::vector<GaussianProcess>& cheap);
 
 struct EmulatedDeviance {
   double chi2 = 0, deviance = 0;
@@ -99,11 +107,10 @@ struct EmulatedFit {
 // `full`, when given, is the full simulator and `simulate` a cheap one: the design and the
 // exploration run cheap, each round's optimum runs on both (a pair), and the fit, its
 // confirmation and its deviance are the full simulator's (cheap emulators plus the
-// discrepancy). `prior_pairs`: (cheap, full) outputs of pairs run already.
+// discrepancy). `prior_pairs`: pairs run already.
 EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& targets, const Eigen::VectorXd& sigmas,
                          int d, const EmulatedFitOptions& opt,
                          const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior = {},
-                         const UnitSimulator* full = nullptr,
-                         const std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>>& prior_pairs = {});
+                         const UnitSimulator* full = nullptr, const std::vector<DiscrepancyPair>& prior_pairs = {});
 
 }  // namespace tamp::loop

@@ -713,9 +713,9 @@ double RunArchive::default_deck_equivalents() const {
 
 Config canonical_effects(Config cfg) {
   for (auto& m : cfg.materials) {
-    // air voids 0 stop compaction only where the compaction strain never falls below 0 (a
-    // separating material's loosened grain has eps_v < 0, kernels/SphSolid.hpp)
-    if (m.crush_pressure <= 0 || (m.air_voids <= 0 && m.separation_density <= 0)) {
+    // no air voids to lose: no compaction (the deck reader refuses a crush pressure without air
+    // voids, so this is also what makes the deck at an emulator's "off" face a valid deck)
+    if (m.crush_pressure <= 0 || m.air_voids <= 0) {
       m.crush_pressure = 0;
       m.air_voids = 0;
       m.crush_hardening = 0;
@@ -758,10 +758,10 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
     const size_t k = static_cast<size_t>(j);
     return ((ranges[k].linear ? v : to_t(ranges[k].name, v)) - tlo[k]) / (thi[k] - tlo[k]);
   };
-  auto config_at = [&](const Eigen::VectorXd& x) {
+  auto config_at = [&](const Eigen::VectorXd& x) {  // a valid deck: an effect at "off" written off
     Config c = cfg0;
     for (int j = 0; j < d; ++j) set_param(c, ranges[static_cast<size_t>(j)].name, value_at(x, j));
-    return c;
+    return canonical_effects(c);
   };
   Eigen::VectorXd targets(n), sigmas(n);
   for (long i = 0; i < n; ++i) {
@@ -1739,7 +1739,18 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
   md << "\n**Selected: " << selected << "**. Error before " << fmt_g(error_before, "%.3f") << ", after "
      << fmt_g(chosen->error, "%.3f") << ".\n\nThe heave / column volume ratio is the volume balance: an undrained "
      << "(incompressible) soil heaves by the volume of the aggregate pushed into it (ratio near 1); a soil that "
-     << "compacts heaves less.\n\n## Residuals after the selected fit\n\n"
+     << "compacts heaves less.\n\n";
+  if (emulated) {
+    md << "Fits on emulators (docs/closing-the-loop.md \"Emulators\"): the model column is the emulators' mean at "
+       << "the fit and the normalised residual is divided by sqrt(sigma^2 + their predictive variance); the "
+       << "confirmation runs' own values are in diagnosis.json. Forward runs: " << archive.full_runs()
+       << " of the full deck";
+    if (archive.cheap_runs() > 0)
+      md << ", " << archive.cheap_runs() << " of the cheap deck (cost ratio " << fmt_g(archive.cost_ratio(), "%.3f")
+         << "): " << fmt_g(archive.default_deck_equivalents(), "%.1f") << " default-deck run equivalents";
+    md << ".\n\n";
+  }
+  md << "## Residuals after the selected fit\n\n"
      << residual_table(chosen->residuals) << "\n## What the catalogue does not explain\n\n" << left.text()
      << ".\n\n## Traces of the baseline fit\n\n" << trace_report(baseline.outputs)
      << "## Traces of the selected fit\n\n" << trace_report(chosen->outputs);

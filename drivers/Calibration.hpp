@@ -150,8 +150,9 @@ class RunArchive {
 };
 
 // A deck with every effect that is off written one way (compaction without a crush pressure
-// or, on a material that never separates, without air voids; rate without a coefficient;
-// remoulding to a ratio of 1), so that two decks that run the same physics compare equal.
+// or without air voids; rate without a coefficient; remoulding to a ratio of 1), so that two
+// decks that run the same physics compare equal, and a deck at an emulator's "off" face is one
+// the deck reader accepts.
 Config canonical_effects(Config cfg);
 
 // A fit on emulators (drivers/loop/EmulatedFit.hpp): a maximin Latin hypercube of about

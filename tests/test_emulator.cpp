@@ -2,6 +2,7 @@
 // checked on analytic functions whose answers are known.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <set>
 
@@ -116,27 +117,25 @@ TEST_CASE("Emulator: decks that run the same physics compare equal after canonic
   CHECK_NOTHROW(tamp::parse_deck(tamp::to_toml(tamp::canonical_effects(d)), "d.toml"));
 }
 
+namespace {
+// A simulator of two outputs over [0, 1]^2: the point itself plus shift(x).
+tamp::loop::UnitSimulator shifted(const std::function<Eigen::Vector2d(const Eigen::VectorXd&)>& shift) {
+  return [shift](const std::vector<Eigen::VectorXd>& pts) {
+    std::vector<Eigen::VectorXd> out;
+    for (const auto& x : pts) out.push_back(x + shift(x));
+    return out;
+  };
+}
+}  // namespace
+
 TEST_CASE("Emulator: a cheap simulator's bias is learnt from pairs of runs and not inherited by the fit", "[loop][emulator]") {
   // The full simulator gives (x0, x1); a cheap one the same shifted by (+0.10, -0.05), ten and
   // five times the data's sigma. Fitted to (0.4, 0.6) on the cheap one alone, the answer
   // inherits the bias (x0 = 0.3); with the full one beside it (each round's optimum run on
   // both, the rest cheap), the discrepancy is learnt (to 1e-6: it is constant here) and the
   // fit lands on the truth within a tenth of sigma, with a handful of full runs.
-  auto full = [](const std::vector<Eigen::VectorXd>& pts) {
-    std::vector<Eigen::VectorXd> out;
-    for (const auto& x : pts) out.push_back(x);
-    return out;
-  };
-  auto cheap = [](const std::vector<Eigen::VectorXd>& pts) {
-    std::vector<Eigen::VectorXd> out;
-    for (const auto& x : pts) {
-      Eigen::VectorXd y = x;
-      y(0) += 0.10;
-      y(1) -= 0.05;
-      out.push_back(y);
-    }
-    return out;
-  };
+  const auto full = shifted([](const Eigen::VectorXd&) { return Eigen::Vector2d(0, 0); });
+  const auto cheap = shifted([](const Eigen::VectorXd&) { return Eigen::Vector2d(0.10, -0.05); });
   Eigen::VectorXd t(2), s(2);
   t << 0.4, 0.6;
   s << 0.01, 0.01;
@@ -144,8 +143,7 @@ TEST_CASE("Emulator: a cheap simulator's bias is learnt from pairs of runs and n
   o.seed = 4;
   const auto alone = tamp::loop::emulated_fit(cheap, t, s, 2, o);
   CHECK(alone.x(0) == Approx(0.3).margin(0.002));
-  const tamp::loop::UnitSimulator full_sim = full;
-  const auto both = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full_sim);
+  const auto both = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full);
   INFO("full runs " << both.full_runs << ", pairs " << both.discrepancy.pairs);
   CHECK(both.discrepancy.mean(0, both.x) == Approx(-0.10).margin(1e-6));
   CHECK(both.discrepancy.mean(1, both.x) == Approx(0.05).margin(1e-6));
@@ -162,20 +160,8 @@ TEST_CASE("Emulator: a cheap simulator's bias that varies over the box is learnt
   // a constant discrepancy cannot serve everywhere. From d + 3 = 5 pairs on, the discrepancy is
   // fitted linearly (exact here); the fit, made to run all its 8 rounds (9 pairs), lands on the
   // truth with the linear discrepancy.
-  auto full = [](const std::vector<Eigen::VectorXd>& pts) {
-    std::vector<Eigen::VectorXd> out;
-    for (const auto& x : pts) out.push_back(x);
-    return out;
-  };
-  auto cheap = [](const std::vector<Eigen::VectorXd>& pts) {
-    std::vector<Eigen::VectorXd> out;
-    for (const auto& x : pts) {
-      Eigen::VectorXd y = x;
-      y(0) += 0.05 + 0.3 * x(1);
-      out.push_back(y);
-    }
-    return out;
-  };
+  const auto full = shifted([](const Eigen::VectorXd&) { return Eigen::Vector2d(0, 0); });
+  const auto cheap = shifted([](const Eigen::VectorXd& x) { return Eigen::Vector2d(0.05 + 0.3 * x(1), 0); });
   Eigen::VectorXd t(2), s(2);
   t << 0.4, 0.6;
   s << 0.01, 0.01;
@@ -183,8 +169,7 @@ TEST_CASE("Emulator: a cheap simulator's bias that varies over the box is learnt
   o.seed = 5;
   o.max_rounds = 8;
   o.max_latent_share = 0;  // never converged: all 8 rounds
-  const tamp::loop::UnitSimulator full_sim = full;
-  const auto fit = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full_sim);
+  const auto fit = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full);
   INFO("full runs " << fit.full_runs << ", pairs " << fit.discrepancy.pairs << ", x " << fit.x.transpose());
   CHECK(fit.x(0) == Approx(0.4).margin(0.003));
   CHECK(fit.x(1) == Approx(0.6).margin(0.003));

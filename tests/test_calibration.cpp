@@ -289,6 +289,22 @@ TEST_CASE("Loop: on emulators, an undeclared rate effect is found and cuts the e
   for (const auto& p : sel["parameters"]) CHECK(p["identified"].get<bool>());
 }
 
+TEST_CASE("Loop: compaction at air voids 0.25 and a crush pressure of 40 kPa is selected alone on emulators",
+          "[loop][verification][emulator]") {
+  // Issue acceptance 2 (a false second effect is not selected): the truth's clay compacts with
+  // both of compaction's parameters away from the values the profile method fixes or starts
+  // from (air voids 0.15, crush pressure 15 kPa). On emulators compaction fits both, so the
+  // data are matched by compaction alone and no second effect earns the BIC margin.
+  const Outcome o = undeclared("compaction-av25", [](Config& cfg) {
+    apply_effect(cfg, "clay", "compaction", {{"crush_pressure", 40e3}, {"air_voids", 0.25}});
+  }, 17, {}, nullptr, "emulator");
+  CHECK(o.selected == "compaction");
+  CHECK(o.after < o.before / 3);
+  const auto js = nlohmann::json::parse(o.json);
+  const auto& sel = js["path"][0]["fit"]["emulator"];
+  CHECK(sel["confirmed"].get<bool>());
+}
+
 TEST_CASE("Loop: two undeclared effects at once are both found, step by step, and cut the error by 3",
           "[loop][verification]") {
   // (d) The truth has compaction and remoulding of the clay; the diagnosis must select both,

@@ -770,7 +770,9 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   }
   std::vector<std::pair<Eigen::VectorXd, RunOutputs>> done;  // every successful full run, for the fit's outputs
   const bool two = !settings.cheap_overrides.empty();
-  auto cheap_of = [&](const Config& c) { return parse_deck(to_toml(c), "the cheap deck", settings.cheap_overrides); };
+  auto cheap_of = [&](const Config& c) {  // (an effect at "off" written off first, as config_at does)
+    return parse_deck(to_toml(canonical_effects(c)), "the cheap deck", settings.cheap_overrides);
+  };
   auto simulate_on = [&](const std::vector<Eigen::VectorXd>& pts, bool cheap) {
     std::vector<Config> batch;
     for (const auto& x : pts) batch.push_back(cheap ? cheap_of(config_at(x)) : config_at(x));
@@ -806,6 +808,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   o.max_rounds = settings.max_rounds;
   o.confirm_z = settings.confirm_z;
   o.max_latent_share = settings.max_latent_share;
+  o.screen = two && settings.screen;
   o.seed = std::stoull(deck_key(seed_label), nullptr, 16);
   // Earlier runs in the box: each archived deck read as a point (a parameter outside the box
   // taken at its "off" value, or mid-range where the effect it belongs to is off), kept when
@@ -851,6 +854,18 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
       prior.emplace_back(x, y);
       if (is_full) done.emplace_back(x, ro);
     }
+    // In the order of the points, not of the archive: the archive holds the runs in the order
+    // the side-by-side fits happened to add them, and the emulators' fits must not depend on
+    // that (the answer is the same for any number of workers).
+    auto by_point = [](const auto& a, const auto& b) {
+      for (long j = 0; j < a.first.size(); ++j)
+        if (a.first(j) != b.first(j)) return a.first(j) < b.first(j);
+      for (long i = 0; i < a.second.size(); ++i)
+        if (a.second(i) != b.second(i)) return a.second(i) < b.second(i);
+      return false;
+    };
+    std::sort(prior.begin(), prior.end(), by_point);
+    std::sort(full_seen.begin(), full_seen.end(), by_point);
     // pairs: a full run at a point where a cheap one ran
     for (const auto& [xf, yf] : full_seen)
       for (const auto& [xc, yc] : prior)
@@ -871,6 +886,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   fit.n = static_cast<int>(n);
   fit.runs = ef.runs + ef.full_runs;
   fit.confirmed = ef.converged;
+  fit.screened = ef.screened;
   for (const auto& r : ranges) fit.names.push_back(r.name);
   if (ef.x.size() != d) {  // every run failed
     fit.chi2 = std::numeric_limits<double>::infinity();
@@ -912,6 +928,7 @@ FitResult calibrate_emulated(const Config& cfg0, const ObservationSet& data, con
   j["batch"] = settings.batch;
   if (two) {
     j["cheap_deck"] = settings.cheap_overrides;
+    j["screened"] = ef.screened;  // confirmed by cheap runs only
     j["full_runs"] = ef.full_runs;
     j["cheap_runs"] = ef.runs;
     j["pairs"] = ef.discrepancy.pairs;
@@ -1517,13 +1534,36 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     // one share the workers with the others' (the answers of one fit after the other)
     log::info("diagnose: step " + std::to_string(k + 1) + ", " + std::to_string(remaining.size()) +
               " candidates refitted side by side" + (labels.empty() ? std::string() : " on top of " + join_labels(labels)));
+    // With two decks every candidate is first screened (the cheap deck and the pairs run so
+    // far, no full run); full runs go only to the contenders: the screened fits that lower BIC
+    // by more than the margin and come within the margin of the best. Only a candidate
+    // confirmed on the full deck can be selected.
+    const bool two_decks = emulated && !opt.emulator.cheap_overrides.empty();
+    DiagnoseOptions screening = opt;
+    screening.emulator.screen = two_decks;
     std::vector<FitResult> refits(remaining.size());
     runner.side_by_side(remaining.size(), [&](size_t i) {
       CalibrateOptions inner = opt.fit;
       inner.verbose = false;
-      refits[i] = emulated ? emulated_candidate_fit(current_cfg, current.names, remaining[i], data, opt, k + 1, baseline_box, archive)
-                           : profile_fit(current_cfg, current.names, refit_param, remaining[i], data, inner);
+      refits[i] = emulated
+                      ? emulated_candidate_fit(current_cfg, current.names, remaining[i], data, screening, k + 1, baseline_box, archive)
+                      : profile_fit(current_cfg, current.names, refit_param, remaining[i], data, inner);
     });
+    if (two_decks) {
+      double lead = -std::numeric_limits<double>::infinity();
+      for (const auto& f : refits) lead = std::max(lead, bic_below_start(current, f));
+      std::vector<size_t> contenders;
+      for (size_t i = 0; i < refits.size(); ++i) {
+        const double b = bic_below_start(current, refits[i]);
+        if (b > opt.bic_margin && b >= lead - opt.bic_margin) contenders.push_back(i);
+      }
+      log::info("diagnose: step " + std::to_string(k + 1) + ": " + std::to_string(contenders.size()) + " of " +
+                std::to_string(refits.size()) + " screened candidates go on to the full deck");
+      runner.side_by_side(contenders.size(), [&](size_t c) {
+        const size_t i = contenders[c];
+        refits[i] = emulated_candidate_fit(current_cfg, current.names, remaining[i], data, opt, k + 1, baseline_box, archive);
+      });
+    }
     for (size_t i = 0; i < remaining.size(); ++i) st.fits.emplace_back(remaining[i], refits[i]);
     // Fair comparison: the current model at each candidate's values of its own parameters;
     // if one fits better than the current fit, it is the current fit (so an effect is not
@@ -1569,7 +1609,7 @@ std::string diagnose(const ObservationSet& data, const std::string& out_dir, con
     // one emulator, so that the emulators' different estimates of the jitter do not count.
     double best = opt.bic_margin;
     for (size_t i = 0; i < st.fits.size(); ++i)
-      if (bic_below_start(current, st.fits[i].second) > best) {
+      if (!st.fits[i].second.screened && bic_below_start(current, st.fits[i].second) > best) {
         best = bic_below_start(current, st.fits[i].second);
         st.chosen = static_cast<int>(i);
       }

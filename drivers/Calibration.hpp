@@ -85,6 +85,7 @@ struct FitResult {
   // JSON object ("" for a fit by forward runs alone).
   std::string emulator_json;
   bool confirmed = true;               // an emulated fit: its optimum's run confirmed the emulators
+  bool screened = false;   // on emulators with two decks: fitted on the cheap deck only (no full run)
   // An emulated candidate with an "off" face: the deviance of the model without the effect,
   // read on the candidate's emulator (NaN otherwise).
   double nested_deviance = std::numeric_limits<double>::quiet_NaN();
@@ -171,6 +172,9 @@ struct EmulatorSettings {
   // deck overrides (KEY=VALUE, as --set) make the cheap deck that runs the design and the
   // exploration; each round's optimum runs on both, and the fit is the full deck's.
   std::vector<std::string> cheap_overrides;
+  // With two decks: fit on the cheap deck and the pairs already run, no full run (a
+  // diagnosis's screening of its candidates; EmulatedFitOptions::screen).
+  bool screen = false;
 };
 // `archive`, when given, holds earlier runs: those that are the deck at a point of the box
 // (decks compared after canonical_effects) join the design without being run again, and the

@@ -146,9 +146,9 @@ ForwardRuns::ForwardRuns(ForwardRunOptions opt) : opt_(std::move(opt)) {
   if (!opt_.cache.empty()) fs::create_directories(opt_.cache);
   engine_ = opt_.engine;
   if (engine_.empty() && !opt_.cache.empty()) {
-    std::vector<std::string> exes{"/proc/self/exe"};
-    if (opt_.jobs > 1) exes.push_back(opt_.tamp_binary);
-    engine_ = engine_fingerprint(exes);
+    // the executable that runs the runs: with jobs > 1 the children alone (this process only
+    // reads their files), so that a loop rebuilt around a frozen engine (--engine) keeps its runs
+    engine_ = engine_fingerprint({opt_.jobs > 1 ? opt_.tamp_binary : std::string("/proc/self/exe")});
   }
 }
 

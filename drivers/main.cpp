@@ -22,6 +22,7 @@
 #include <memory>
 #include <sstream>
 #include <thread>
+#include <unistd.h>
 
 #include "core/Deck.hpp"
 #include "core/Format.hpp"
@@ -318,7 +319,19 @@ int prepare_loop_folder_here(const std::string& out, bool force, bool resume) {
   return 0;
 }
 
-tamp::ForwardRunOptions forward_options(const std::string& out, int jobs) {
+// --engine: the tamp executable the forward runs are run with (children, so --jobs 2 or more),
+// checked before the result folder.
+void check_engine(const std::string& engine, int jobs) {
+  if (engine.empty()) return;
+  std::error_code ec;
+  if (!fs::is_regular_file(engine, ec) || ::access(engine.c_str(), X_OK) != 0)
+    throw std::invalid_argument("--engine '" + engine + "': not an executable regular file; allowed: a tamp executable");
+  if (jobs < 2)
+    throw std::invalid_argument("--engine '" + engine + "' with --jobs " + std::to_string(jobs) +
+                                ": allowed only with --jobs 2 or more (the runs are its child processes)");
+}
+
+tamp::ForwardRunOptions forward_options(const std::string& out, int jobs, const std::string& engine = "") {
   if (jobs < 1) throw std::invalid_argument("--jobs " + std::to_string(jobs) + ": allowed: 1 or more");
   tamp::ForwardRunOptions fo;
   fo.jobs = jobs;
@@ -326,7 +339,7 @@ tamp::ForwardRunOptions forward_options(const std::string& out, int jobs) {
   fo.threads_per_job = std::max(1, cores / jobs);
   fo.scratch = out + "/scratch";
   fo.cache = out + "/cache";
-  fo.tamp_binary = this_executable();
+  fo.tamp_binary = engine.empty() ? this_executable() : fs::absolute(engine).string();
   return fo;
 }
 
@@ -348,7 +361,8 @@ void check_cheap_deck(const Config& base, const std::vector<std::string>& cheap,
 
 int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
                   const std::string& out, bool force, int iterations, const std::string& method, int jobs, bool resume,
-                  const std::vector<std::string>& cheap) {
+                  const std::vector<std::string>& cheap, const std::string& engine) {
+  check_engine(engine, jobs);
   const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
   const Config cfg = load_deck(data.scenario, data.scenario_overrides);
   const auto names = split_list(params.empty() ? data.target_material + ".Su" : params);
@@ -357,7 +371,7 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
   for (const auto& p : names) (void)tamp::get_param(cfg, p);
   check_cheap_deck(cfg, cheap, method);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
-  tamp::ForwardRuns runner(forward_options(out, jobs));
+  tamp::ForwardRuns runner(forward_options(out, jobs, engine));
   tamp::CalibrateOptions opt;
   opt.scratch = out + "/scratch";
   opt.max_iterations = iterations;
@@ -391,14 +405,15 @@ int cmd_calibrate(const std::string& data_path, const std::vector<std::string>& 
 int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& sets, const std::string& params,
                  const std::string& out, bool force, int iterations, double bic_margin, int jobs, bool resume,
                  const std::string& method, int max_steps, int batch, int points_per_parameter,
-                 const std::vector<std::string>& cheap) {
+                 const std::vector<std::string>& cheap, const std::string& engine) {
+  check_engine(engine, jobs);
   const tamp::ObservationSet data = load_data_with_overrides(data_path, sets);
   // the deck with its overrides and the targets checked before the result folder
   const Config base = load_deck(data.scenario, data.scenario_overrides);
   tamp::check_target_materials(data, base);
   check_cheap_deck(base, cheap, method);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
-  tamp::ForwardRuns runner(forward_options(out, jobs));
+  tamp::ForwardRuns runner(forward_options(out, jobs, engine));
   tamp::DiagnoseOptions opt;
   opt.fit.runner = &runner;
   opt.method = method == "emulator" ? "emulator" : "profile";
@@ -532,6 +547,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
   diagnose->add_option("--set", sets, scenario_set_help);
+  std::string engine;
+  const char* engine_help =
+      "The tamp executable that runs the forward runs (default: this one; needs --jobs 2 or more). The run "
+      "cache keys on its bytes: a long diagnosis resumed after a rebuild keeps its runs with a frozen copy";
+  diagnose->add_option("--engine", engine, engine_help);
+  calibrate->add_option("--engine", engine, engine_help);
   auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
   synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
   synth->add_option("--effect", effect, "none, compaction, rate or remoulding (default none)");
@@ -566,10 +587,10 @@ int main(int argc, char** argv) {
     if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile, forward);
     if (*check) rc = cmd_check(deck, sets);
     if (*compare) rc = cmd_compare(data_path, run_dir);
-    if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume, cheap);
+    if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume, cheap, engine);
     if (*diagnose)
       rc = cmd_diagnose(data_path, sets, params, out, force, iterations, bic_margin, jobs, resume, diagnose_method,
-                        max_steps, batch, points_per_parameter, cheap);
+                        max_steps, batch, points_per_parameter, cheap, engine);
     if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());

@@ -629,6 +629,33 @@ TEST_CASE("Loop: the scenario overrides of calibrate and diagnose are checked be
   }
 }
 
+TEST_CASE("Loop: --engine names an executable that runs the forward runs and is checked before any work", "[loop]") {
+  // `--engine PATH`: the runs are child processes of that executable (a frozen copy keeps a
+  // long diagnosis's run cache across rebuilds of the loop); a path that is not an executable
+  // regular file, or --jobs 1, is bad input: exit 2, one error line naming --engine, no folder.
+  namespace fs = std::filesystem;
+  const std::string d = temp_dir("engine");
+  const std::string bin = TAMP_BINARY;
+  const std::string data = std::string(TAMP_SOURCE_DIR) + "/data/lab-observations.toml";
+  for (const std::string args : {"--engine " + d + " --jobs 2",            // a folder
+                                 "--engine " + d + "/none --jobs 2",        // nothing there
+                                 "--engine " + data + " --jobs 2",          // not executable
+                                 "--engine " + bin + " --jobs 1"}) {        // not child processes
+    const std::string out = d + "/out";
+    const std::string log = d + "/log.txt";
+    const int status = std::system((bin + " diagnose " + data + " " + args + " --out " + out + " > " + log + " 2>&1").c_str());
+    std::ifstream in(log);
+    std::vector<std::string> errors;
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("[tamp] error:", 0) == 0) errors.push_back(line);
+    INFO(args);
+    CHECK((WIFEXITED(status) ? WEXITSTATUS(status) : -1) == 2);
+    REQUIRE(errors.size() == 1);
+    CHECK(errors[0].find("--engine") != std::string::npos);
+    CHECK_FALSE(fs::exists(out));
+  }
+}
+
 TEST_CASE("Loop: a residual the catalogue does not explain is reported with its pattern", "[loop]") {
   // The definition (docs/closing-the-loop.md): error = RMS of the normalised residuals; above
   // 2 a residual remains, and the observations beyond 2 uncertainties are listed by quantity

@@ -154,6 +154,33 @@ TEST_CASE("Emulator: a cheap simulator's bias is learnt from pairs of runs and n
   CHECK(both.full_runs <= 5);
 }
 
+TEST_CASE("Emulator: a screening fit runs no full run and reads the full simulator through the pairs already run",
+          "[loop][emulator]") {
+  // The diagnosis screens its candidates on the cheap deck (EmulatedFitOptions::screen): the
+  // pairs an earlier fit ran (here two, of the constant shift of the test above) carry the
+  // discrepancy, so the screened fit lands on the full simulator's optimum without a full run
+  // of its own; each round's optimum is checked by a cheap run against the cheap emulators.
+  const auto full = shifted([](const Eigen::VectorXd&) { return Eigen::Vector2d(0, 0); });
+  const auto cheap = shifted([](const Eigen::VectorXd&) { return Eigen::Vector2d(0.10, -0.05); });
+  Eigen::VectorXd t(2), s(2);
+  t << 0.4, 0.6;
+  s << 0.01, 0.01;
+  std::vector<tamp::loop::DiscrepancyPair> pairs;
+  for (const Eigen::Vector2d x : {Eigen::Vector2d(0.2, 0.3), Eigen::Vector2d(0.7, 0.8)})
+    pairs.push_back({x, cheap({x})[0], full({x})[0]});
+  tamp::loop::EmulatedFitOptions o;
+  o.seed = 4;
+  o.screen = true;
+  const auto fit = tamp::loop::emulated_fit(cheap, t, s, 2, o, {}, &full, pairs);
+  INFO("x " << fit.x.transpose() << ", cheap runs " << fit.runs);
+  CHECK(fit.screened);
+  CHECK(fit.full_runs == 0);
+  CHECK(fit.discrepancy.pairs == 2);
+  CHECK(fit.x(0) == Approx(0.4).margin(0.001));
+  CHECK(fit.x(1) == Approx(0.6).margin(0.001));
+  CHECK(fit.confirmed);  // the cheap runs at the optimum agree with the cheap emulators
+}
+
 TEST_CASE("Emulator: a cheap simulator's bias that varies over the box is learnt linearly once there are enough pairs",
           "[loop][emulator]") {
   // The cheap simulator's first output is off by 0.05 + 0.3 x1 (5 to 35 sigma over the box), so

@@ -205,7 +205,9 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     ++fit.full_runs;
     return out.empty() ? Eigen::VectorXd() : out[0];
   };
-  if (full && pairs.empty()) {
+  fit.screened = full && opt.screen;
+  const bool run_full_too = full && !opt.screen;
+  if (run_full_too && pairs.empty()) {
     const Eigen::VectorXd x0 = box_minimum(
         [&](const Eigen::VectorXd& x) { return emulated_deviance(em, targets, sigmas, x).deviance; }, starts_for(em), nullptr);
     const auto c0 = run({x0});
@@ -225,7 +227,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
     std::vector<GaussianProcess::Prediction> pred;  // of the simulator the fit is for
     for (size_t i = 0; i < em.size(); ++i) {
       auto p = em[i].predict(xstar);
-      if (dzp && dz.pairs > 0) {
+      if (run_full_too && dz.pairs > 0) {  // (screening checks the cheap emulators by a cheap run)
         p.mean += dz.mean(static_cast<long>(i), xstar);
         p.nugget += dz.var(static_cast<long>(i), xstar);
       }
@@ -249,7 +251,7 @@ EmulatedFit emulated_fit(const UnitSimulator& simulate, const Eigen::VectorXd& t
       batch.push_back(box_minimum(lcb, st, nullptr));
     }
     auto out = run(batch);
-    if (full) {  // the optimum on the full simulator too: the confirmation, and a pair
+    if (run_full_too) {  // the optimum on the full simulator too: the confirmation, and a pair
       const Eigen::VectorXd f = run_full(xstar);
       if (ok_out(out[0]) && ok_out(f)) pairs.push_back({xstar, out[0], f});
       out[0] = f;

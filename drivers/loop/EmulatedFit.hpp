@@ -31,6 +31,11 @@ struct EmulatedFitOptions {
   double max_latent_share = 1.0;  // converged: at the optimum, every output's emulator variance is at
                                   // most this share of the variance it is compared with (sigma^2 + nugget)
   std::uint64_t seed = 1;         // the design's seed
+  // Two fidelities, screening: no run of the full simulator. The fit is the full one's as the
+  // pairs already run see it (cheap emulators plus their discrepancy), and each round's
+  // optimum is checked by a cheap run against the cheap emulators. A diagnosis screens every
+  // candidate so, and spends full runs only on those that can win (docs/closing-the-loop.md).
+  bool screen = false;
   // A nested model's face (coordinate, fixed unit value): its fit on the final emulators is
   // reported too (EmulatedFit::nested), e.g. the current model as a candidate's effect off.
   std::vector<std::pair<int, double>> nested_face;
@@ -97,6 +102,7 @@ struct EmulatedFit {
   // Two fidelities: the runs of the full simulator (one per round, at the optimum; the
   // outputs and run_chi2 above are its), and the discrepancy learnt.
   int full_runs = 0;
+  bool screened = false;          // fitted with EmulatedFitOptions::screen: confirmed by cheap runs only
   Discrepancy discrepancy;
 };
 

@@ -937,11 +937,18 @@ Config parse_deck(const std::string& toml_text, const std::string& file_label,
   }
 }
 
-Config load_deck(const std::string& path, const std::vector<std::string>& overrides) {
+void require_regular_file(const std::string& path, const std::string& what) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw DeckError(printable(path) + ": the deck file does not exist");
-  if (fs::is_directory(path, ec)) throw DeckError(printable(path) + ": is a directory, not a deck file");
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) throw DeckError(printable(path) + ": the " + what + " does not exist");
+  if (fs::is_directory(st)) throw DeckError(printable(path) + ": is a directory, not a " + what);
+  if (!fs::is_regular_file(st))
+    throw DeckError(printable(path) + ": is not a regular file (a FIFO, device or socket is not read); allowed: a " + what);
+}
+
+Config load_deck(const std::string& path, const std::vector<std::string>& overrides) {
+  require_regular_file(path, "deck file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DeckError(printable(path) + ": cannot open the deck file (" + std::strerror(errno) + ")");
   std::ostringstream text;

@@ -29,6 +29,11 @@ struct DeckError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// An input file is opened only when it is a regular file: a FIFO would block, a device never
+// end. Throws DeckError naming the path and `what` it should be ("deck file", "data file")
+// when it is missing, a folder, or not a regular file.
+void require_regular_file(const std::string& path, const std::string& what);
+
 // Reads and validates the deck at `path`; Config::source_file is set to `path`.
 // `overrides` are command-line KEY=VALUE settings (`tamp run --set`), applied to the parsed
 // TOML before validation, so that an overridden value is checked like a written one:

@@ -45,7 +45,7 @@ bool contains(const std::vector<std::string>& v, const std::string& x) {
 ObservationSet load_observations(const std::string& path) {
   const std::string shown = printable(path);  // the file name as a one-line message shows it
   namespace fs = std::filesystem;
-  if (!fs::exists(path)) throw DeckError(shown + ": the data file does not exist");
+  require_regular_file(path, "data file");
   toml::table root;
   try {
     root = toml::parse_file(path);
@@ -120,7 +120,7 @@ ObservationSet load_observations(const std::string& path) {
     o.quantity = *q;
     if (const auto* b = t->get("blow")) {
       const auto bi = b->value<int64_t>();
-      if (!bi || *bi < 1) bad(p + ".blow", "...", "is out of range", "an integer >= 1");
+      if (!bi || *bi < 1 || *bi > 1000000) bad(p + ".blow", bi ? std::to_string(*bi) : "...", "is out of range", "an integer 1 to 1000000");
       o.blow = static_cast<int>(*bi);
       if (!contains(per_blow_quantities(), o.quantity))
         bad(p + ".quantity", "\"" + printable(o.quantity) + "\"", "is not a per-blow quantity", join(per_blow_quantities()));
@@ -131,25 +131,50 @@ ObservationSet load_observations(const std::string& path) {
     const auto* range = t->get("range");
     const auto value = (*t)["value"].value<double>();
     const auto sigma = (*t)["sigma"].value<double>();
+    for (const char* k : {"value", "sigma"})  // present, then a number (an integer reads as one)
+      if (const auto* node = t->get(k); node && !node->is_number()) {
+        std::ostringstream v;
+        node->visit([&](const auto& n) { v << n; });
+        bad(p + "." + k, printable(v.str(), 60), "has the wrong type", "a finite number");
+      }
     if (range) {
       const auto* ra = range->as_array();
       if (!ra || ra->size() != 2 || !ra->get(0)->value<double>() || !ra->get(1)->value<double>())
         bad(p + ".range", "...", "has the wrong form", "[low, high] with low < high");
       o.lo = *ra->get(0)->value<double>();
       o.hi = *ra->get(1)->value<double>();
-      if (!(o.lo < o.hi)) bad(p + ".range", "[" + fmt_num(o.lo) + ", " + fmt_num(o.hi) + "]", "is out of range", "low < high");
+      const std::string shown_range = "[" + fmt_num(o.lo) + ", " + fmt_num(o.hi) + "]";
+      if (!std::isfinite(o.lo) || !std::isfinite(o.hi))
+        bad(p + ".range", shown_range, "is not finite", "finite numbers [low, high] with low < high");
+      if (!(o.lo < o.hi)) bad(p + ".range", shown_range, "is out of range", "low < high");
       if (value || sigma) bad(p + ".value", "...", "conflicts with range", "either range = [low, high] or value and sigma");
       o.is_range = true;
-      o.value = 0.5 * (o.lo + o.hi);
-      o.sigma = 0.5 * (o.hi - o.lo);
+      // halves first: the midpoint and half-width of [1e308, 1.7e308] do not overflow
+      o.value = 0.5 * o.lo + 0.5 * o.hi;
+      o.sigma = 0.5 * o.hi - 0.5 * o.lo;
+      if (!(o.sigma > 0)) bad(p + ".range", shown_range, "is too narrow to be an uncertainty", "low < high with (high - low) / 2 > 0");
     } else {
       if (!value) throw DeckError(shown + ": " + p + ".value is missing; required: value and sigma, or range = [low, high]");
       if (!sigma) throw DeckError(shown + ": " + p + ".sigma is missing; required: sigma > 0 with value");
-      if (!(*sigma > 0) || !std::isfinite(*sigma)) bad(p + ".sigma", fmt_num(*sigma), "is out of range", "sigma > 0");
+      if (!std::isfinite(*value)) bad(p + ".value", fmt_num(*value), "is not finite", "a finite number");
+      if (!(*sigma > 0) || !std::isfinite(*sigma)) bad(p + ".sigma", fmt_num(*sigma), "is out of range", "a finite sigma > 0");
       o.value = *value;
       o.sigma = *sigma;
     }
-    if (auto s = (*t)["source"].value<std::string>()) o.source = *s;
+    // the normalised residual (model - value) / sigma of a model near the value, and its
+    // square in chi2, must stay finite
+    if (!(std::fabs(o.value) <= 1e150 * o.sigma))
+      bad(p + (o.is_range ? ".range" : ".sigma"), fmt_num(o.sigma) + " (sigma) for " + fmt_num(o.value),
+          "is too small beside the value", "sigma >= |value| * 1e-150");
+    if (const auto* src = t->get("source")) {
+      const auto s = src->value<std::string>();
+      if (!s) {
+        std::ostringstream v;
+        src->visit([&](const auto& node) { v << node; });
+        bad(p + ".source", printable(v.str(), 60), "has the wrong type", "a string (where the value comes from)");
+      }
+      o.source = *s;
+    }
     set.observations.push_back(o);
   }
   return set;

@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "core/Deck.hpp"
+#include "core/Format.hpp"
 #include "core/Log.hpp"
 #include "drivers/DropSequence.hpp"
 #include "drivers/ForwardRuns.hpp"
@@ -65,13 +66,35 @@ RunOutputs run_forward(const Config& cfg, const std::string& dir) {
 RunOutputs read_run_dir(const std::string& dir) {
   RunOutputs o;
   const std::string summary = dir + "/summary.json";
+  {
+    std::error_code ec;
+    if (!std::filesystem::exists(summary, ec))
+      throw std::invalid_argument(printable(summary) + " does not exist (is '" + printable(dir) + "' a finished tamp run?)");
+  }
+  require_regular_file(summary, "run summary (JSON)");
   std::ifstream js(summary);
-  if (!js) throw std::invalid_argument(summary + " does not exist (is '" + dir + "' a finished tamp run?)");
+  std::stringstream js_text;
+  js_text << js.rdbuf();
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(js);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw std::invalid_argument(summary + " is not valid JSON (" + e.what() + ")");
+    j = nlohmann::json::parse(js_text.str());
+  } catch (const nlohmann::json::out_of_range& e) {
+    // a number beyond double (1e999): name its key, the text before it
+    // (the library's message quotes the number: "number overflow parsing '1e999'")
+    const std::string text = js_text.str(), what = e.what();
+    std::string key = "?", number;
+    const size_t a = what.find('\''), b = a == std::string::npos ? a : what.find('\'', a + 1);
+    if (b != std::string::npos) number = what.substr(a + 1, b - a - 1);
+    const size_t at = number.empty() ? std::string::npos : text.find(number);
+    const size_t colon = at == std::string::npos ? at : text.rfind(':', at);
+    if (colon != std::string::npos) {
+      const size_t q1 = text.rfind('"', colon), q0 = q1 == std::string::npos || q1 == 0 ? std::string::npos : text.rfind('"', q1 - 1);
+      if (q0 != std::string::npos) key = text.substr(q0 + 1, q1 - q0 - 1);
+    }
+    throw std::invalid_argument(printable(summary) + ": \"" + printable(key, 60) + "\" is " + printable(number, 60) +
+                                ", beyond the range of a double; allowed: a finite number or null");
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(printable(summary) + " is not valid JSON (" + printable(e.what()) + ")");
   }
   if (!j.is_object() || j.empty())
     throw std::invalid_argument(summary + " is not a JSON object of the run's quantities (found " +
@@ -79,20 +102,30 @@ RunOutputs read_run_dir(const std::string& dir) {
   for (const auto& [key, value] : j.items()) {
     if (value.is_number()) o.summary[key] = value.get<double>();
     else if (value.is_null()) o.summary[key] = std::numeric_limits<double>::quiet_NaN();
-    else throw std::invalid_argument(summary + ": \"" + key + "\" is " + value.dump() + "; allowed: a number or null");
+    else throw std::invalid_argument(printable(summary) + ": \"" + printable(key, 60) + "\" is " + printable(value.dump(), 60) + "; allowed: a number or null");
   }
   const std::string table = dir + "/blows.csv";
+  {
+    std::error_code ec;
+    if (!std::filesystem::exists(table, ec)) throw std::invalid_argument(printable(table) + " does not exist");
+  }
+  require_regular_file(table, "blow table (CSV)");
   std::ifstream bl(table);
-  if (!bl) throw std::invalid_argument(table + " does not exist");
   std::string line;
-  std::getline(bl, line);
+  // RFC 4180 ends lines with CRLF: a line's CR is not part of its last cell
+  auto getline_csv = [&](std::string& l) {
+    if (!std::getline(bl, l)) return false;
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    return true;
+  };
+  getline_csv(line);
   std::vector<std::string> header;
   {
     std::stringstream hs(line);
     for (std::string h; std::getline(hs, h, ',');) header.push_back(h);
   }
   if (header.empty()) throw std::invalid_argument(table + " has no header row");
-  for (int row_no = 2; std::getline(bl, line); ++row_no) {
+  for (int row_no = 2; getline_csv(line); ++row_no) {
     std::stringstream ls(line);
     std::map<std::string, double> row;
     size_t k = 0;
@@ -100,8 +133,8 @@ RunOutputs read_run_dir(const std::string& dir) {
       double x = 0;
       const auto res = std::from_chars(cell.data(), cell.data() + cell.size(), x);
       if (res.ec != std::errc() || res.ptr != cell.data() + cell.size() || !std::isfinite(x))
-        throw std::invalid_argument(table + " row " + std::to_string(row_no) + ", column " + header[k] + ": '" + cell +
-                                    "' is not a finite number");
+        throw std::invalid_argument(printable(table) + " row " + std::to_string(row_no) + ", column " + printable(header[k], 60) +
+                                    ": '" + printable(cell, 60) + "' is not a finite number");
       row[header[k]] = x;
     }
     if (k != header.size())

@@ -36,6 +36,7 @@
 #include "drivers/Calibration.hpp"
 #include "drivers/Ranks.hpp"
 #include "drivers/Simulation.hpp"
+#include "drivers/cli/CommandLine.hpp"
 
 namespace fs = std::filesystem;
 // Using-declarations, not `using namespace tamp`: that would make tamp::log visible at
@@ -411,6 +412,7 @@ int cmd_diagnose(const std::string& data_path, const std::vector<std::string>& s
   // the deck with its overrides and the targets checked before the result folder
   const Config base = load_deck(data.scenario, data.scenario_overrides);
   tamp::check_target_materials(data, base);
+  for (const auto& p : split_list(params)) (void)tamp::get_param(base, p);  // a baseline parameter the deck has
   check_cheap_deck(base, cheap, method);
   if (const int rc = prepare_loop_folder(out, force, resume)) return rc;
   tamp::ForwardRuns runner(forward_options(out, jobs, engine));
@@ -446,6 +448,15 @@ int cmd_synth(const std::string& deck, const std::string& effect, const std::vec
   tamp::apply_effect(cfg, material, effect, overrides);
   std::string description = "effect " + effect;
   for (const auto& [k, v] : overrides) description += ", " + k + " = " + std::to_string(v);
+  // the deck with the effect and the overrides is checked as `tamp check` checks a deck,
+  // before any run (a strength below 0, a Poisson ratio of 0.7)
+  try {
+    (void)tamp::parse_deck(tamp::to_toml(cfg), deck);
+  } catch (const DeckError& e) {
+    std::string with;
+    for (const auto& s : sets) with += (with.empty() ? "" : " ") + ("--set " + s);
+    throw DeckError(std::string(e.what()) + " (with " + (with.empty() ? "--effect " + effect : with) + ")");
+  }
   // the data file refers to the deck relative to its own folder
   const fs::path out_dir = fs::absolute(out).parent_path();
   const std::string rel = fs::relative(fs::absolute(deck), out_dir).string();
@@ -458,120 +469,24 @@ int cmd_synth(const std::string& deck, const std::string& effect, const std::vec
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Tamp: particle simulation of dynamic replacement (axisymmetric SPH for soils)"};
-  app.set_version_flag("--version", std::string("tamp ") + TAMP_VERSION);
-  app.require_subcommand(1);
-  std::string deck, out, restart;
-  int stop_after = -1;
-  std::vector<std::string> sets;
-  bool force = false;
-  auto* run = app.add_subcommand("run", "Run an input deck and write the results to a folder");
-  run->add_option("deck", deck, "Input deck (TOML), e.g. examples/geostatic-clay.toml")->required();
-  run->add_option("--out", out, "Result folder (must not exist unless --force)")->required();
-  run->add_flag("--force", force, "Overwrite an existing result folder");
-  run->add_option("--restart", restart,
-                  "Resume from a checkpoint of an earlier run of the same deck: DIR/checkpoint.h5, or for a "
-                  "drop sequence DIR/checkpoints/<stage>.h5 (any stage) or DIR/checkpoints/interrupted.h5");
-  run->add_option("--set", sets,
-                  "Override a deck value: KEY=VALUE, e.g. sph.spacing=0.005, fem.enabled=true, clay.Su=12000 "
-                  "(a dotted path of tables, or <material>.<key>; the value in TOML; KEY= removes the key)");
-  run->add_option("--stop-after-stage", stop_after,
-                  "Drop sequence: stop after this stage (0-based, as numbered in checkpoints/)");
-  bool profile = false;
-  bool forward = false;
-  run->add_flag("--forward", forward, "A forward run of calibrate/diagnose: quiet, no per-stage snapshots or checkpoints")
-      ->group("");  // internal
-  run->add_flag("--profile", profile, "Time each part of the step (fences between parts) and write profile.csv");
-  auto* check = app.add_subcommand("check", "Validate a deck and print what it would run");
-  check->add_option("deck", deck, "Input deck (TOML)")->required();
-  check->add_option("--set", sets, "Override a deck value, as for run: KEY=VALUE, e.g. sph.spacing=0.005 (KEY= removes the key)");
-  std::string data_path, run_dir, params, effect = "none", material = "clay";
-  double noise = 0.02;
-  unsigned seed = 1;
-  int iterations = 8;
-  double bic_margin = 6.0;
-  std::string method = "nelder-mead";
-  auto* compare = app.add_subcommand("compare", "Residuals of a finished run against measured data");
-  compare->add_option("data", data_path, "Data file (TOML), e.g. data/lab-observations.toml")->required();
-  compare->add_option("--run", run_dir, "Result folder of a finished tamp run")->required();
-  auto* calibrate = app.add_subcommand("calibrate", "Fit parameters of the data file's scenario (Levenberg-Marquardt)");
-  calibrate->add_option("data", data_path, "Data file (TOML)")->required();
-  calibrate->add_option("--params", params, "Comma-separated parameters, e.g. clay.Su,clay.G (default <target>.Su)");
-  calibrate->add_option("--out", out, "Result folder")->required();
-  calibrate->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations (default 8)");
-  calibrate->add_option("--method", method,
-                        "nelder-mead (default), lm, NLopt's sbplx / bobyqa (bounded, derivative-free), or emulator "
-                        "(Gaussian-process emulators over each parameter's range, confirmed by runs)")
-      ->check(CLI::IsMember({"nelder-mead", "lm", "sbplx", "bobyqa", "emulator"}));
-  calibrate->add_flag("--force", force, "Overwrite an existing result folder");
-  int jobs = 1;
-  int max_steps = 3;
-  bool resume = false;
-  calibrate->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
-  calibrate->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
-  const char* scenario_set_help =
-      "Override a value of the data file's scenario deck, as for run: KEY=VALUE, e.g. sph.spacing=0.02 "
-      "(a coarser screening deck)";
-  calibrate->add_option("--set", sets, scenario_set_help);
-  auto* diagnose = app.add_subcommand("diagnose", "Calibrate the baseline, refit with each catalogued effect, rank by BIC");
-  diagnose->add_option("data", data_path, "Data file (TOML)")->required();
-  diagnose->add_option("--params", params, "Baseline parameters (default <target>.Su)");
-  diagnose->add_option("--out", out, "Result folder (diagnosis.json, report.md)")->required();
-  diagnose->add_option("--iterations", iterations, "Most Levenberg-Marquardt iterations per fit (default 8)");
-  diagnose->add_option("--bic-margin", bic_margin,
-                       "How much an effect must lower BIC to be selected (default 6, 'strong' evidence)")
-      ->check(CLI::NonNegativeNumber);
-  diagnose->add_flag("--force", force, "Overwrite an existing result folder");
-  std::string diagnose_method = "profile";
-  int batch = 4, points_per_parameter = 10;
-  diagnose->add_option("--method", diagnose_method,
-                       "profile (default: a profile grid and a Nelder-Mead polish by runs alone), the profile with "
-                       "another polish (lm, sbplx, bobyqa), or emulator (every fit on Gaussian-process emulators "
-                       "from a space-filling design, confirmed by runs; far fewer runs)")
-      ->check(CLI::IsMember({"emulator", "profile", "nelder-mead", "lm", "sbplx", "bobyqa"}));
-  diagnose->add_option("--batch", batch,
-                       "Emulator: points run per sequential round (default 4; the answer does not depend on --jobs)")
-      ->check(CLI::Range(1, 1024));
-  std::vector<std::string> cheap;
-  const char* cheap_help =
-      "Emulator: a deck override (KEY=VALUE, as --set) that makes the cheap deck of the design, e.g. "
-      "sph.spacing=0.02 (repeat for several); each round's optimum runs on the full deck too, and the fit "
-      "is the full deck's, the cheap deck's bias learnt from the pairs";
-  diagnose->add_option("--cheap", cheap, cheap_help);
-  calibrate->add_option("--cheap", cheap, cheap_help);
-  diagnose->add_option("--points-per-parameter", points_per_parameter,
-                       "Emulator: initial design runs per fitted parameter (default 10)")
-      ->check(CLI::Range(2, 1000));
-  diagnose->add_option("--jobs", jobs, "Forward runs side by side (child processes, OMP_NUM_THREADS = cores / N)");
-  diagnose->add_option("--max-steps", max_steps, "Most effects composed, one per step (default 3)")
-      ->check(CLI::Range(1, 100));
-  diagnose->add_flag("--resume", resume, "Continue in an existing result folder, reusing its finished forward runs");
-  diagnose->add_option("--set", sets, scenario_set_help);
-  std::string engine;
-  const char* engine_help =
-      "The tamp executable that runs the forward runs (default: this one; needs --jobs 2 or more). The run "
-      "cache keys on its bytes: a long diagnosis resumed after a rebuild keeps its runs with a frozen copy";
-  diagnose->add_option("--engine", engine, engine_help);
-  calibrate->add_option("--engine", engine, engine_help);
-  auto* synth = app.add_subcommand("synth", "Make synthetic data with a chosen effect and seeded noise");
-  synth->add_option("deck", deck, "Scenario deck with a [schedule]")->required();
-  synth->add_option("--effect", effect, "none, compaction, rate or remoulding (default none)");
-  synth->add_option("--set", sets, "KEY=VALUE parameter overrides, e.g. clay.Su=12000 or crush_pressure=20000");
-  synth->add_option("--material", material, "Material the effect applies to (default clay)");
-  synth->add_option("--noise", noise, "Relative noise (default 0.02)");
-  synth->add_option("--seed", seed, "Random seed (default 1)");
-  synth->add_option("--out", out, "Data file to write")->required();
-  synth->add_flag("--force", force, "Overwrite an existing data file");
+  const auto cl = tamp::cli::make_command_line();
+  tamp::cli::CommandLine& c = *cl;
+  CLI::App& app = c.app;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : 2;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // one line, as every other refusal: the option, the value (quoted, escaped, cut), what is allowed
+    std::string what = e.what();
+    for (char& ch : what)
+      if (ch == '\n') ch = ' ';
+    tamp::log::error("bad command line: " + tamp::printable(what));
+    return 2;
   }
 
   // calibrate / diagnose under mpirun: the ranks share the forward runs (drivers/Ranks.hpp);
   // each rank takes its share of the node's cores, rank 0 reports and writes.
-  if (*calibrate || *diagnose) {
+  if (*c.calibrate || *c.diagnose) {
     const tamp::Ranks& rk = tamp::ranks_init(&argc, &argv);
     if (rk.size > 1 && !std::getenv("OMP_NUM_THREADS")) {  // a set OMP_NUM_THREADS is kept
       const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
@@ -584,14 +499,14 @@ int main(int argc, char** argv) {
   Kokkos::initialize(argc, argv);
   int rc = 0;
   try {
-    if (*run) rc = cmd_run(deck, out, force, restart, stop_after, sets, profile, forward);
-    if (*check) rc = cmd_check(deck, sets);
-    if (*compare) rc = cmd_compare(data_path, run_dir);
-    if (*calibrate) rc = cmd_calibrate(data_path, sets, params, out, force, iterations, method, jobs, resume, cheap, engine);
-    if (*diagnose)
-      rc = cmd_diagnose(data_path, sets, params, out, force, iterations, bic_margin, jobs, resume, diagnose_method,
-                        max_steps, batch, points_per_parameter, cheap, engine);
-    if (*synth) rc = cmd_synth(deck, effect, sets, material, noise, seed, out, force);
+    if (*c.run) rc = cmd_run(c.deck, c.out, c.force, c.restart, c.stop_after, c.sets, c.profile, c.forward);
+    if (*c.check) rc = cmd_check(c.deck, c.sets);
+    if (*c.compare) rc = cmd_compare(c.data_path, c.run_dir);
+    if (*c.calibrate) rc = cmd_calibrate(c.data_path, c.sets, c.params, c.out, c.force, c.iterations, c.method, c.jobs, c.resume, c.cheap, c.engine);
+    if (*c.diagnose)
+      rc = cmd_diagnose(c.data_path, c.sets, c.params, c.out, c.force, c.iterations, c.bic_margin, c.jobs, c.resume, c.diagnose_method,
+                        c.max_steps, c.batch, c.points_per_parameter, c.cheap, c.engine);
+    if (*c.synth) rc = cmd_synth(c.deck, c.effect, c.sets, c.material, c.noise, c.seed, c.out, c.force);
   } catch (const DeckError& e) {
     tamp::log::error(e.what());
     rc = 2;

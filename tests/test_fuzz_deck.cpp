@@ -7,6 +7,7 @@
 // TAMP_FUZZ_CASES and TAMP_FUZZ_SEED change the count (default 3000, about 1 s) and the seed.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <sys/wait.h>
 #include <filesystem>
@@ -46,6 +47,19 @@ bool documented_refusal(const std::string& msg, const std::string& file) {
           msg.find("TOML syntax error") != std::string::npos);
 }
 
+// The oracle where a mutation's verdict is known (issue 56): a deck or data file with an
+// unknown key, or with a number replaced by a non-finite one, is invalid whatever else it holds.
+bool is_number_text(std::string v) {
+  const size_t hash = v.find('#');
+  if (hash != std::string::npos) v = v.substr(0, hash);
+  while (!v.empty() && (v.back() == ' ' || v.back() == '\t')) v.pop_back();
+  if (v.empty()) return false;
+  char* end = nullptr;
+  std::strtod(v.c_str(), &end);
+  return end && *end == '\0' && v.find_first_of("\"[") == std::string::npos;
+}
+bool non_finite_text(const std::string& v) { return v == "nan" || v == "inf" || v == "-inf" || v == "1e999"; }
+
 }  // namespace
 
 TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never crash", "[deck][fuzz]") {
@@ -57,13 +71,14 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
   for (const auto& d : decks) texts.push_back(lines_of(dir + d));
   std::mt19937 rng(seed);
   auto pick = [&](std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); };
-  int accepted = 0, refused = 0, built = 0, build_refused = 0;
+  int accepted = 0, refused = 0, built = 0, build_refused = 0, wrong = 0;
   std::vector<std::string> failures;
   for (int c = 0; c < cases && failures.size() < 5; ++c) {
     const std::size_t d = pick(decks.size());
     std::vector<std::string> t = texts[d];
     const int mutations = 1 + static_cast<int>(pick(3));
     std::string what;
+    std::vector<std::string> invalid_lines;  // known-invalid lines put in (a later mutation may remove them)
     for (int m = 0; m < mutations; ++m) {
       std::vector<std::size_t> keyed;  // "key = value" lines
       for (std::size_t i = 0; i < t.size(); ++i)
@@ -73,12 +88,22 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
       const std::string key = t[i].substr(0, t[i].find(" = "));
       switch (pick(4)) {
         case 0:
-        case 1: t[i] = key + " = " + kNasty[pick(kNasty.size())]; break;  // a nasty value
+        case 1: {  // a nasty value
+          const std::string v = kNasty[pick(kNasty.size())];
+          const std::string texts_line = t[i].substr(t[i].find(" = ") + 3);
+          t[i] = key + " = " + v;
+          if (is_number_text(texts_line) && non_finite_text(v)) invalid_lines.push_back(t[i]);
+          break;
+        }
         case 2: t.erase(t.begin() + static_cast<long>(i)); break;          // a key left out
-        default: t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1"); // an unknown key
+        default:
+          t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1");  // an unknown key
+          invalid_lines.push_back("fuzz_key = 1");
       }
       what += " | " + (i < t.size() ? t[i] : std::string("(end)"));
     }
+    bool known_invalid = false;
+    for (const auto& l : t) known_invalid = known_invalid || std::find(invalid_lines.begin(), invalid_lines.end(), l) != invalid_lines.end();
     std::ostringstream text;
     for (const auto& l : t) text << l << "\n";
     const std::string label = "fuzz-" + std::to_string(c) + "-" + decks[d];
@@ -86,6 +111,11 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
     try {
       cfg = tamp::parse_deck(text.str(), label);
       ++accepted;
+      if (known_invalid) {
+        ++wrong;
+        failures.push_back("case " + std::to_string(c) + what + "\n  accepted, but an unknown key or a non-finite number is in it");
+        continue;
+      }
     } catch (const tamp::DeckError& e) {
       const std::string msg = e.what();
       if (!documented_refusal(msg, label)) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
@@ -107,8 +137,8 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
     }
   }
   std::printf("[fuzz] %d cases (seed %u): %d accepted, %d refused in one line; of the accepted ci-drop mutants "
-              "%d built, %d refused as bad input; %zu failures\n",
-              cases, seed, accepted, refused, built, build_refused, failures.size());
+              "%d built, %d refused as bad input; %d wrong verdicts where known; %zu failures\n",
+              cases, seed, accepted, refused, built, build_refused, wrong, failures.size());
   for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
   CHECK(failures.empty());
   CHECK(refused > cases / 4);  // the mutations do reach the validators
@@ -135,11 +165,12 @@ TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and nev
   std::filesystem::create_directories(dir);
   std::mt19937 rng(seed);
   auto pick = [&](std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); };
-  int accepted = 0, refused = 0;
+  int accepted = 0, refused = 0, wrong = 0;
   std::vector<std::string> failures;
   for (int c = 0; c < cases && failures.size() < 5; ++c) {
     std::vector<std::string> t = texts[pick(texts.size())];
     std::string what;
+    std::vector<std::string> invalid_lines;  // known-invalid lines put in (a later mutation may remove them)
     const int mutations = 1 + static_cast<int>(pick(3));
     for (int m = 0; m < mutations; ++m) {
       std::vector<std::size_t> keyed;
@@ -150,13 +181,24 @@ TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and nev
       const std::string key = t[i].substr(0, t[i].find(" = "));
       switch (pick(5)) {
         case 0:
-        case 1: t[i] = key + " = " + kNasty[pick(kNasty.size())]; break;
+        case 1: {
+          const std::string v = kNasty[pick(kNasty.size())];
+          const std::string texts_line = t[i].substr(t[i].find(" = ") + 3);
+          t[i] = key + " = " + v;
+          if (is_number_text(texts_line) && non_finite_text(v)) invalid_lines.push_back(t[i]);
+          break;
+        }
         case 2: t.erase(t.begin() + static_cast<long>(i)); break;
-        case 3: t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1"); break;
+        case 3:
+          t.insert(t.begin() + static_cast<long>(i), "fuzz_key = 1");
+          invalid_lines.push_back("fuzz_key = 1");
+          break;
         default: t.resize(i); break;  // a truncated file
       }
       what += " | " + (i < t.size() ? t[i] : std::string("(end)"));
     }
+    bool known_invalid = false;
+    for (const auto& l : t) known_invalid = known_invalid || std::find(invalid_lines.begin(), invalid_lines.end(), l) != invalid_lines.end();
     const std::string path = dir + "/fuzz-" + std::to_string(c) + ".toml";
     {
       std::ofstream out(path);
@@ -165,6 +207,10 @@ TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and nev
     try {
       (void)tamp::load_observations(path);
       ++accepted;
+      if (known_invalid) {
+        ++wrong;
+        failures.push_back("case " + std::to_string(c) + what + "\n  accepted, but an unknown key or a non-finite number is in it");
+      }
     } catch (const tamp::DeckError& e) {
       const std::string msg = e.what();
       if (!documented_refusal(msg, path)) failures.push_back("case " + std::to_string(c) + what + "\n  message: " + msg);
@@ -174,8 +220,8 @@ TEST_CASE("Fuzz: mutated data files are accepted or refused in one line, and nev
     }
     std::filesystem::remove(path);
   }
-  std::printf("[fuzz] %d data-file cases (seed %u): %d accepted, %d refused in one line; %zu failures\n", cases, seed,
-              accepted, refused, failures.size());
+  std::printf("[fuzz] %d data-file cases (seed %u): %d accepted, %d refused in one line; %d wrong verdicts where known; "
+              "%zu failures\n", cases, seed, accepted, refused, wrong, failures.size());
   for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
   CHECK(failures.empty());
   CHECK(refused > cases / 4);

@@ -277,7 +277,8 @@ TEST_CASE("Fuzz: the command line exits 0 or 2 with one error line on mutated de
       for (const auto& l : t) out << l << "\n";
     }
     const std::string log = (dir / "log.txt").string();
-    const std::string cmd = bin + (is_deck ? " check " + file : " compare " + file + " --run " + (dir / "run").string()) +
+    // each case under a time limit: a hang (a FIFO read, an endless loop) is exit 124, a failure
+    const std::string cmd = "timeout 30 " + bin + (is_deck ? " check " + file : " compare " + file + " --run " + (dir / "run").string()) +
                             " > " + log + " 2>&1";
     const int status = std::system(cmd.c_str());
     std::ifstream in(log);
@@ -297,7 +298,8 @@ TEST_CASE("Fuzz: the command line exits 0 or 2 with one error line on mutated de
     else
       fs::remove(file);
   }
-  std::printf("[fuzz] command line: %d cases, %d exit 0, %d exit 2 with one error line naming the file; %zu failures\n",
+  std::printf("[fuzz] command line: %d cases, %d exit 0, %d exit 2 with one error line naming the file; %zu failures "
+              "(a hang over 30 s would be exit 124)\n",
               cases, exit0, exit2, failures.size());
   for (const auto& f : failures) std::printf("[fuzz] %s\n", f.c_str());
   CHECK(failures.empty());

@@ -43,7 +43,8 @@ struct Outcome {
 };
 Outcome run_tamp(const std::string& args, const fs::path& dir) {
   const std::string log = (dir / "log.txt").string();
-  const int status = std::system((std::string(TAMP_BINARY) + " " + args + " > " + log + " 2>&1 < /dev/null").c_str());
+  // under a time limit: a hang (a FIFO read) is exit 124, not a stuck test
+  const int status = std::system(("timeout 60 " + std::string(TAMP_BINARY) + " " + args + " > " + log + " 2>&1 < /dev/null").c_str());
   Outcome o{WIFEXITED(status) ? WEXITSTATUS(status) : -1, {}};
   std::ifstream in(log);
   for (std::string line; std::getline(in, line);)

@@ -137,7 +137,7 @@ struct BackfillSpec {
   double radius = 0.0;            // m, fill inside this radius; 0 = pounder max radius + 2 spacings
 };
 
-// The staged drop sequence (drivers/DropSequence.hpp). enabled = the deck has [schedule].
+// The staged drop sequence (drivers/sequence/DropSequence.hpp). enabled = the deck has [schedule].
 struct ScheduleSpec {
   bool enabled = false;
   std::vector<double> drop_heights;    // m, one per blow

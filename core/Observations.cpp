@@ -11,12 +11,17 @@
 
 #include "core/Deck.hpp"
 #include "core/Format.hpp"
+#include "core/RunSummary.hpp"
 
 namespace tamp {
 
-const std::vector<std::string>& summary_quantities() {
-  static const std::vector<std::string> q{"column_length_m", "head_diameter_m", "max_diameter_m", "base_diameter_m",
-                                          "uplift_m", "aggregate_total_kg", "blows_completed"};
+const std::vector<std::string>& summary_quantities() {  // the observable keys of summary.json
+  static const std::vector<std::string> q = [] {
+    std::vector<std::string> v;
+    for (const auto& f : run_summary_fields())
+      if (f.observable) v.push_back(f.key);
+    return v;
+  }();
   return q;
 }
 

@@ -43,7 +43,7 @@ struct ObservationSet {
   std::string target_material = "clay";      // the first of target_materials
   std::vector<std::string> target_materials = {"clay"};
   // Constitutive-model switches the diagnosis tries on the target materials beside the
-  // effects (e.g. "modified-cam-clay"; drivers/Calibration.cpp model_switch_catalogue). None by default.
+  // effects (e.g. "modified-cam-clay"; drivers/loop/Calibration.cpp model_switch_catalogue). None by default.
   std::vector<std::string> model_switches;
   // The effects of the catalogue the diagnosis tries (e.g. ["compaction"]); all when the data
   // file does not say (has_effects false). Checked against the catalogue by the diagnosis.

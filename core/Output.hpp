@@ -96,7 +96,7 @@ struct Checkpoint {
 // scalar. Written to path.tmp and renamed, so an interrupted write never leaves half a file.
 // True once closing an HDF5 file failed (a full disk): the library then keeps the file open
 // and its clean-up at exit would retry the write forever or crash, so the program must end
-// with std::_Exit after reporting (drivers/main.cpp).
+// with std::_Exit after reporting (drivers/cli/main.cpp).
 bool hdf5_write_failed();
 void write_checkpoint_h5(const std::string& path, const Checkpoint& c);
 Checkpoint read_checkpoint_h5(const std::string& path);

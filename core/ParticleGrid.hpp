@@ -1,7 +1,7 @@
 // How many particles a deck asks for, counted before anything is allocated: the regular
 // grid of spacing dp in each block (clipped to the SPH zone when elements take the rest),
 // in 64 bits so that a huge model is refused by validation instead of overflowing an int.
-// Host only, no Kokkos (the deck reader uses it; drivers/Simulation.cpp builds from it).
+// Host only, no Kokkos (the deck reader uses it; kernels/solver/Simulation.cpp builds from it).
 #pragma once
 #include <cmath>
 #include <vector>

@@ -25,7 +25,7 @@ enum ParticleFlag : int {
 
 // The particle fields, declared once. Storage, growth (reserve), the values of a new
 // particle (fill_new: the generator and the backfill), checkpoint save and restore
-// (drivers/Simulation.cpp) all iterate this list; adding a field is one line here (then
+// (kernels/solver/Simulation.cpp) all iterate this list; adding a field is one line here (then
 // the kernel or model that uses it). Mirror particles (kernels/Mirror.hpp) transform the
 // fields they need by the wall's symmetry, which is physics, not a copy, and stay written
 // out there; snapshots (core/Output.hpp) hold the fields a user reads.

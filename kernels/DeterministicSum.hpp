@@ -3,7 +3,7 @@
 // A Kokkos reduction adds in an order that depends on the thread count, so a sum that
 // feeds the dynamics (the contact force on the pounder) would make a run on 1 thread differ
 // in the last bits from one on 2 threads, and the difference grows over thousands of steps.
-// Forward runs of the loop (drivers/ForwardRuns.hpp) run with whatever threads a worker has
+// Forward runs of the loop (drivers/loop/ForwardRuns.hpp) run with whatever threads a worker has
 // and must give the same answer. Here [0, n) is cut into blocks of kBlock entries, each
 // block summed in index order by one thread, and the block sums added in block order on the
 // host: the same additions in the same order on every back end.

@@ -43,7 +43,7 @@ struct FemMesh {
   ViewN<double, 2> v;       // velocity at the last half step, m/s
   ViewN<double, 2> f_int;   // internal force (stress divergence + hourglass), N
   ViewN<double, 2> f_ext;   // applied external force (set by the user), N
-  ViewN<double, 2> f_tie;   // force from tied particles (SPH-FEM tie, drivers/Simulation.cpp), N
+  ViewN<double, 2> f_tie;   // force from tied particles (SPH-FEM tie, kernels/solver/Simulation.cpp), N
   ViewN<double, 2> v_bc;    // prescribed velocity of the flagged components, m/s
   View1<double> mass;       // lumped ring mass, kg
   View1<int> bc;            // NodeBc flags

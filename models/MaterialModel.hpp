@@ -2,7 +2,7 @@
 // deck keys it reads (unit, allowed range, default, which calibration may fit), how they
 // become the plain-data MaterialParams the kernels use, its cross-key rules and the history
 // variables it updates. The deck reader and writer (core/Deck.cpp), make_material, the plan
-// that `tamp check` prints and calibration's parameter table (drivers/Calibration.cpp) all read
+// that `tamp check` prints and calibration's parameter table (drivers/loop/Calibration.cpp) all read
 // these descriptions; the device update of each model lives in its own header and is
 // dispatched by MaterialParams::model (models/StressUpdate.hpp). Adding a model: its header
 // (device update + describe()), one line in models/ModelList.hpp, its test, its docs page
@@ -30,7 +30,7 @@ struct ModelKey {
   std::optional<double> fallback;     // default when the deck leaves it out; none = required
   std::string meaning;                // short text for the plan and error messages
   double MaterialSpec::*field = nullptr;  // where it is stored; nullptr: MaterialSpec::params[key]
-  bool fittable = true;               // calibration may fit it (drivers/Calibration.cpp)
+  bool fittable = true;               // calibration may fit it (drivers/loop/Calibration.cpp)
   bool shown_at_default = true;       // false: written and printed only when set (keeps decks short)
 };
 

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "drivers/LabMaterials.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/LabMaterials.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 using namespace tamp;
 

@@ -20,8 +20,8 @@
 
 #include "core/Deck.hpp"
 #include "kernels/FemModel.hpp"
-#include "drivers/LabMaterials.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/LabMaterials.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 using namespace tamp;
 

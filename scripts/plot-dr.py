@@ -196,7 +196,9 @@ S = summary or {}
 last = {k: v[-1] for k, v in blows.items()} if blows is not None else {}
 uplift = S.get("uplift_m", last.get("uplift_m"))
 agg = S.get("aggregate_total_kg", float(blows["aggregate_added_kg"].sum()) if blows is not None else None)
-done = S.get("blows_completed", len(blows["blow"]) if blows is not None else 0)
+# counts are numbers in summary.json (1552.0): shown as whole numbers
+count = lambda x: str(int(round(x))) if isinstance(x, (int, float)) and x == x else str(x)
+done = int(round(S.get("blows_completed", len(blows["blow"]) if blows is not None else 0)))
 c11 = ref["column_after_11_charges"]
 mm = lambda x: f"{1e3 * x[0]:.0f}-{1e3 * x[1]:.0f}"
 rows = [
@@ -217,8 +219,8 @@ rows = [
 ]
 L = [f"# Dynamic replacement run: {deck['run']['name']}", ""]
 if summary:
-    L += [f"Deck `{deck['run']['name']}`: {S['particles']} particles, spacing {1e3 * S['spacing_m']:g} mm, "
-          f"{S['blows_completed']} of {planned} blows completed, {S['steps']} steps, "
+    L += [f"Deck `{deck['run']['name']}`: {count(S['particles'])} particles, spacing {1e3 * S['spacing_m']:g} mm, "
+          f"{count(S['blows_completed'])} of {planned} blows completed, {count(S['steps'])} steps, "
           f"{S['simulated_time_s']:.3f} s simulated in {S['wall_s']:.1f} s wall time.", ""]
 else:
     L += [f"Deck `{deck['run']['name']}`: run unfinished (no summary.json); "

@@ -10,12 +10,12 @@
 #include <vector>
 #include <catch2/catch.hpp>
 #include "core/Config.hpp"
-#include "drivers/LabMaterials.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/LabMaterials.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 namespace tamp::testing {
 
-// The lab clay of the reference paper, elastic (drivers/LabMaterials.hpp).
+// The lab clay of the reference paper, elastic (drivers/sequence/LabMaterials.hpp).
 inline MaterialSpec lab_clay_elastic() { return lab::clay("elastic"); }
 
 inline Config column_config(double radius, double height, double spacing) {

@@ -15,7 +15,7 @@
 #include "SphTestUtil.hpp"
 #include "core/Log.hpp"
 #include "core/Output.hpp"
-#include "drivers/DropSequence.hpp"
+#include "drivers/sequence/DropSequence.hpp"
 
 using tamp::BlockSpec;
 using tamp::Config;
@@ -560,7 +560,7 @@ TEST_CASE("Aggregate: a cone of the charge 3 deg flatter than phi stands and com
 // separating they stand at 32.0 deg (std 3.2) and come to rest (fastest 4.1 mm/s). The flowed
 // charge can stand steeper (poured with damping, then released undamped: 38-49 deg, at rest);
 // it does not stop: after the last row the heap slumps for 0.5 s, its moving grains at zero
-// stress (docs/drop-sequence.md "After the feed stops, the heap slumps"). On a rough incline
+// stress (docs/findings/2026-12-07-the-aggregate-as-a-poured-material.md "After the feed stops, the heap slumps"). On a rough incline
 // (the hidden test "Aggregate: a layer*" below) the never-separating charge stops between 33
 // and 36 deg, and with the deck's separation it accelerates at 30 deg: the flowing layer's
 // sheared basal row dilates to about 1440 kg/m3 and is read as separated. The figures above
@@ -636,7 +636,7 @@ HeapEnsemble pour_heaps(int default_pours) {
   const int nr = static_cast<int>(std::lround(R_pour / dp)), k0 = static_cast<int>(std::lround(R_in / dp));
   const int per_pour = static_cast<int>(knob("TAMP_HEAP_ROWS_PER_POUR", 1));
   // With TAMP_HEAP_FED=1, the flank one row interval after the last row, while the heap is
-  // still flowing (docs/drop-sequence.md "After the feed stops, the heap slumps"); off by
+  // still flowing (docs/findings/2026-12-07-the-aggregate-as-a-poured-material.md "After the feed stops, the heap slumps"); off by
   // default, because stopping there changes the step sequence and so the chaotic pours.
   // TAMP_HEAP_RELEASE = t: the damping acts for t s of the settle, then it is undamped.
   const bool fed_probe = knob("TAMP_HEAP_FED", 0) != 0;
@@ -728,7 +728,7 @@ TEST_CASE("Aggregate: a heap of the charge poured on a rough base stands at its 
 // The CI's small version of the test above: its first three pours (the lattice rain and two
 // jittered ones), the same assertions. Three pours are a coarser ensemble (a standard error
 // of about 1.5-2 deg against the band's 3); the five-pour test and the twenty-pour figures
-// (docs/drop-sequence.md "The head-on viscosity") stay the measurement. Measured 2026-12-07:
+// (docs/findings/2026-12-07-the-aggregate-as-a-poured-material.md "The head-on viscosity") stay the measurement. Measured 2026-12-07:
 // 37.4 / 35.7 / 35.5, mean 36.2 deg, fastest grain 0.98 mm/s.
 TEST_CASE("Aggregate: three pours of the charge stand within 3 deg of atan(sin phi) and come to rest",
           "[aggregate]") {
@@ -869,7 +869,7 @@ TEST_CASE("Aggregate: a layer of the charge on a rough incline stops below atan(
 // a hidden known defect until the aggregate took its viscosity on the head-on part of each
 // pair's approach only (2026-12-07, twenty-third session; docs/sph.md "Head-on viscosity"):
 // 0.428 -> 0.078 -> 0.000 m/s, and the 3 cm layer stops at 33 and 36 deg as well and runs off
-// at 40 (docs/drop-sequence.md "The head-on viscosity"). 4 s on 2 threads.
+// at 40 (docs/findings/2026-12-07-the-aggregate-as-a-poured-material.md "The head-on viscosity"). 4 s on 2 threads.
 TEST_CASE("Aggregate: a thin layer of the charge (3 cm) on a rough incline stops at 30 deg, as a thick one does",
           "[aggregate]") {
   tamp::log::set_level(tamp::log::Level::Quiet);

@@ -15,8 +15,8 @@
 
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
-#include "drivers/ForwardRuns.hpp"
-#include "drivers/Calibration.hpp"
+#include "drivers/loop/ForwardRuns.hpp"
+#include "drivers/loop/Calibration.hpp"
 #include <nlohmann/json.hpp>
 
 // Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
@@ -565,7 +565,7 @@ TEST_CASE("Loop: fits side by side give the answers of one after the other in fe
 
 TEST_CASE("Loop: a calibration shared by 2 MPI ranks gives the answer of one process", "[loop][forward-runs][mpi]") {
   // `mpirun -n 2 tamp calibrate`: the ranks share every batch of forward runs and exchange
-  // the results (drivers/ForwardRuns.hpp); the fit must be the one of a single process to
+  // the results (drivers/loop/ForwardRuns.hpp); the fit must be the one of a single process to
   // the last bit (parameter, uncertainty, chi2, runs), and rank 0 alone writes the files.
   namespace fs = std::filesystem;
   const std::string d = temp_dir("mpi");

@@ -13,7 +13,7 @@
 #include "SphTestUtil.hpp"
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
-#include "drivers/DropSequence.hpp"
+#include "drivers/sequence/DropSequence.hpp"
 
 // Using-declarations, not `using namespace tamp`: tamp::log would clash with ::log in the
 // CUDA math headers (nvcc).

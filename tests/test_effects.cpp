@@ -4,8 +4,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "drivers/LabMaterials.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/LabMaterials.hpp"
+#include "kernels/solver/Simulation.hpp"
 #include "models/StressUpdate.hpp"
 
 using namespace tamp;

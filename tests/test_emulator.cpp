@@ -7,7 +7,7 @@
 #include <set>
 
 #include "core/Deck.hpp"
-#include "drivers/Calibration.hpp"
+#include "drivers/loop/Calibration.hpp"
 #include "drivers/loop/EmulatedFit.hpp"
 #include "drivers/loop/Emulator.hpp"
 

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "kernels/FemModel.hpp"
-#include "drivers/LabMaterials.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/LabMaterials.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 using namespace tamp;
 using namespace tamp::fem;

@@ -19,7 +19,7 @@
 
 #include "core/Deck.hpp"
 #include "core/Observations.hpp"
-#include "drivers/Simulation.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 namespace {
 

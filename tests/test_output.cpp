@@ -372,7 +372,7 @@ int interrupted_run(const std::string& deck, const std::string& out, const std::
 
 TEST_CASE("Output: Ctrl-C ends a run with a checkpoint and one line, and the run resumes from it to the same answer",
           "[output]") {
-  // Both kinds of run go through the one run loop (drivers/RunLoop.hpp): a drop sequence
+  // Both kinds of run go through the one run loop (drivers/sequence/RunLoop.hpp): a drop sequence
   // (the CI drop scenario, about 10 s) and a plain run (the same model without pounder and
   // schedule, 0.25 s of settling). Each is interrupted with SIGINT after 2 s of wall time.
   // Expected: exit code 1, exactly one error line "interrupted (Ctrl-C) ... checkpoint PATH",

@@ -1,5 +1,5 @@
 // The command line's validators: each numeric option declares its kind and range where it is
-// declared (drivers/main.cpp), so that a bad value is refused by one mechanism before any
+// declared (drivers/cli/main.cpp), so that a bad value is refused by one mechanism before any
 // work, with one line naming the option, the value and what is allowed (docs/input-deck.md
 // "Command-line options"). CLI11's own Range lets NaN through (every comparison with NaN is
 // false) and takes "inf" for a double; these do not.

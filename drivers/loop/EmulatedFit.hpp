@@ -4,7 +4,7 @@
 // confirmation) and where the emulator is unsure near it, q points at a time.
 //
 // Independent of the engine: the simulator is a function of points in the unit box, so the
-// same code calibrates the particle model (drivers/Calibration.cpp) and the analytic
+// same code calibrates the particle model (drivers/loop/Calibration.cpp) and the analytic
 // functions of the tests.
 #pragma once
 #include <Eigen/Dense>

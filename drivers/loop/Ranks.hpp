@@ -1,4 +1,4 @@
-// The MPI ranks of a `mpirun -n K tamp calibrate|diagnose ...` (drivers/ForwardRuns.hpp:
+// The MPI ranks of a `mpirun -n K tamp calibrate|diagnose ...` (drivers/loop/ForwardRuns.hpp:
 // the ranks share a batch of forward runs and every rank gets every result). Without MPI
 // (not built with it, or not launched by mpirun) there is one rank and nothing here talks.
 #pragma once

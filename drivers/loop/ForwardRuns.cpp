@@ -1,4 +1,4 @@
-#include "drivers/ForwardRuns.hpp"
+#include "drivers/loop/ForwardRuns.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -23,7 +23,7 @@
 
 #include "core/Deck.hpp"
 #include "core/Log.hpp"
-#include "drivers/Ranks.hpp"
+#include "drivers/loop/Ranks.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -1,4 +1,4 @@
-#include "drivers/Ranks.hpp"
+#include "drivers/loop/Ranks.hpp"
 
 #include <cstdlib>
 #include <stdexcept>

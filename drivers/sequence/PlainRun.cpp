@@ -1,4 +1,4 @@
-#include "drivers/PlainRun.hpp"
+#include "drivers/sequence/PlainRun.hpp"
 
 #include <algorithm>
 #include <cstdio>

@@ -1,6 +1,6 @@
 // A plain run: a deck without [schedule], one stage of dynamics to run.end_time (or
 // run.max_steps), with a snapshot, the energy table and a checkpoint every output_interval
-// of simulated time (docs/output.md). Stepped by the one run loop (drivers/RunLoop.hpp).
+// of simulated time (docs/output.md). Stepped by the one run loop (drivers/sequence/RunLoop.hpp).
 #pragma once
 #include <chrono>
 #include <string>
@@ -8,8 +8,8 @@
 
 #include "core/Config.hpp"
 #include "core/Output.hpp"
-#include "drivers/RunLoop.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/RunLoop.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 namespace tamp {
 

@@ -3,7 +3,7 @@
 //   tamp check DECK                     validate a deck and print what it would run
 //   tamp --version
 //   tamp run DECK --out DIR --restart OLD/checkpoint.h5   resume an interrupted run
-//   (a deck with [schedule] runs the drop sequence: drivers/DropSequence.hpp)
+//   (a deck with [schedule] runs the drop sequence: drivers/sequence/DropSequence.hpp)
 // Exit codes: 0 ok, 2 bad input, 1 run failure (or interrupted). Every snapshot also
 // writes DIR/checkpoint.h5, the last good restartable state.
 #include <CLI/CLI.hpp>
@@ -29,13 +29,13 @@
 #include "core/ParticleGrid.hpp"
 #include "core/Log.hpp"
 #include "core/Output.hpp"
-#include "drivers/DropSequence.hpp"
-#include "drivers/PlainRun.hpp"
-#include "drivers/RunLoop.hpp"
-#include "drivers/ForwardRuns.hpp"
-#include "drivers/Calibration.hpp"
-#include "drivers/Ranks.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/DropSequence.hpp"
+#include "drivers/sequence/PlainRun.hpp"
+#include "drivers/sequence/RunLoop.hpp"
+#include "drivers/loop/ForwardRuns.hpp"
+#include "drivers/loop/Calibration.hpp"
+#include "drivers/loop/Ranks.hpp"
+#include "kernels/solver/Simulation.hpp"
 #include "drivers/cli/CommandLine.hpp"
 
 namespace fs = std::filesystem;
@@ -224,7 +224,7 @@ int cmd_run(const std::string& deck, const std::string& out, bool force, const s
 
   Simulation sim(cfg);
   sim.set_profiling(profile);
-  // One run loop for both kinds of run (drivers/RunLoop.hpp): the stage sequence of the
+  // One run loop for both kinds of run (drivers/sequence/RunLoop.hpp): the stage sequence of the
   // deck's [schedule], or one stage of dynamics.
   std::unique_ptr<tamp::Run> run;
   if (cfg.schedule.enabled) {
@@ -484,7 +484,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  // calibrate / diagnose under mpirun: the ranks share the forward runs (drivers/Ranks.hpp);
+  // calibrate / diagnose under mpirun: the ranks share the forward runs (drivers/loop/Ranks.hpp);
   // each rank takes its share of the node's cores, rank 0 reports and writes.
   if (*c.calibrate || *c.diagnose) {
     const tamp::Ranks& rk = tamp::ranks_init(&argc, &argv);

@@ -92,7 +92,7 @@ struct FitResult {
   double bic() const;                  // chi2 + k ln n (known uncertainties)
 };
 
-class ForwardRuns;  // drivers/ForwardRuns.hpp
+class ForwardRuns;  // drivers/loop/ForwardRuns.hpp
 
 struct CalibrateOptions {
   std::string method = "nelder-mead";  // or "lm" (Levenberg-Marquardt with Eigen), or NLopt's
@@ -237,7 +237,7 @@ struct DiagnoseOptions {
   // chi2 by more than 6 + ln n (~8.3): p ~ 0.4 % per candidate under the null.
   double bic_margin = 6.0;
   CalibrateOptions fit;
-  // Forward runs (drivers/ForwardRuns.hpp): this many side by side (child processes of
+  // Forward runs (drivers/loop/ForwardRuns.hpp): this many side by side (child processes of
   // `tamp_binary` when > 1), each run remembered in DIR/cache so that a diagnosis started
   // again in the same folder does not redo them.
   // Effects composed step by step: after one is selected the rest are tried again on top of

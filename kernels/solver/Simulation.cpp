@@ -1,4 +1,4 @@
-#include "drivers/Simulation.hpp"
+#include "kernels/solver/Simulation.hpp"
 #include "kernels/DeterministicSum.hpp"
 #include "core/Format.hpp"
 #include "core/ParticleGrid.hpp"

@@ -17,8 +17,9 @@
 #include <vector>
 #include "core/Config.hpp"
 #include "core/Output.hpp"
-#include "drivers/RunLoop.hpp"
-#include "drivers/Simulation.hpp"
+#include "core/RunSummary.hpp"
+#include "drivers/sequence/RunLoop.hpp"
+#include "kernels/solver/Simulation.hpp"
 #include "kernels/Measurements.hpp"
 
 namespace tamp {
@@ -101,6 +102,27 @@ struct Stage {
   int blow;  // 1-based; 0 for relax
 };
 
+// The energies a blow's energy account differences (J), by name: the pounder's (kinetic +
+// potential), the contact's, the work of damping, of the non-reflecting boundaries, of wall
+// friction and of the artificial stress (EnergyLedger); per material the kinetic, internal,
+// potential and elastic energies and the numerical heat (the particles' viscous heat and the
+// tied elements' hourglass work); the tied elements' nodes: motion, boundary work, damping
+// work (zero without elements); the work of the axis and wall images. A checkpoint holds them
+// as flat() writes them (new terms appended last): a term an older checkpoint lacks is NaN
+// after from_flat, and its difference counts from the restart (zero).
+struct BlowEnergies {
+  double pounder = 0, contact = 0, damping = 0, boundary = 0, wall_friction = 0, artificial_stress = 0;
+  struct Material {
+    double kinetic = 0, internal = 0, potential = 0, elastic = 0, numerical_heat = 0;
+  };
+  std::vector<Material> materials;
+  double node_motion = 0, node_boundary = 0, node_damping = 0;
+  double axis_images = 0, wall_images = 0;
+  bool known = false;  // taken from the model (a default one, never taken, is written as nothing)
+  std::vector<double> flat() const;
+  static BlowEnergies from_flat(const std::vector<double>& v, size_t n_materials);
+};
+
 class DropSequence : public Run {
  public:
   // `out` is the result folder (exists); outputs and checkpoints go there.
@@ -114,7 +136,7 @@ class DropSequence : public Run {
   // Resume from a checkpoint written by this class (stage end or interruption).
   void restore(const Checkpoint& c);
 
-  // Runs the remaining stages (through run_steps, drivers/RunLoop.hpp). Stops after stage
+  // Runs the remaining stages (through run_steps, drivers/sequence/RunLoop.hpp). Stops after stage
   // `stop_after` (0-based) if >= 0, or when `keep_going` returns false (checked every step;
   // the state is then checkpointed to checkpoints/interrupted.h5). Returns true when every
   // stage is done. Throws RunFailure (NaN, collapsing step) after writing what is known so far.
@@ -122,7 +144,7 @@ class DropSequence : public Run {
   // Stop after stage k (0-based; -1: run every stage).
   void set_stop_after(int k) { stop_after_ = k; }
 
-  // Run (drivers/RunLoop.hpp): one step of the current stage, starting and ending stages.
+  // Run (drivers/sequence/RunLoop.hpp): one step of the current stage, starting and ending stages.
   bool step() override;
   void interrupt() override;      // checkpoints/interrupted.h5 and the tables so far
   void write_partial() override;  // the tables so far
@@ -133,8 +155,8 @@ class DropSequence : public Run {
   // column.csv and summary.json.
   void write_tables(double wall_s) const;
   ColumnSummary column() const;
-  // The keys of summary.json (numbers), e.g. for the closed loop (drivers/Calibration.hpp).
-  std::vector<std::pair<std::string, double>> summary(double wall_s) const;
+  // The keys of summary.json (numbers), e.g. for the closed loop (drivers/loop/Calibration.hpp).
+  RunSummary summary(double wall_s) const;
   // Volume balance (the trace of compaction): heave volume of the soil surface above the
   // ground level, and the volume of the aggregate below it, m3.
   double heave_volume() const;
@@ -155,7 +177,7 @@ class DropSequence : public Run {
   // over the radial columns of width dp whose centres lie in [r_in, r_out), m; NaN where no
   // column there has soil.
   double mean_soil_top(double r_in, double r_out, int neighbours) const;
-  std::vector<double> energy_state() const;  // what the blow's energy account differences
+  BlowEnergies energy_state() const;  // what the blow's energy account differences
   void backfill(const Stage& s);
   void end_stage(int k);
   void record(bool force);  // tracer, pounder and energy rows
@@ -190,7 +212,7 @@ class DropSequence : public Run {
   // (start time, -1 none; out_since_ of the flight it was for) and the time jumped
   double relax_since_ = -1, relaxed_flight_ = -1, ballistic_time_ = 0;
   void ballistic_flight(double min_flight, bool touching);
-  std::vector<double> energy0_;  // energy_state() at the placement of the pounder
+  BlowEnergies energy0_;  // energy_state() at the placement of the pounder
   double stage_wall_ = 0;    // wall seconds of the current blow so far
   std::vector<BlowRecord> blows_;
   std::vector<int> tracer_index_;

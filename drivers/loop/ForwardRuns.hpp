@@ -1,5 +1,5 @@
-// Independent forward runs of a calibration or diagnosis (drivers/Calibration.hpp), run side by
-// side and remembered (docs/closing-the-loop.md "Forward runs in parallel").
+// Independent forward runs of a calibration or diagnosis (drivers/loop/Calibration.hpp), run side by
+// side and remembered (docs/closing-the-loop.md "Forward runs side by side, remembered").
 //
 // A batch of decks is run in order of submission. With jobs = 1 each run is done in this
 // process; with jobs = N > 1, N at a time, each a `tamp run DECK --forward` child process
@@ -10,7 +10,7 @@
 // fixed order, kernels/DeterministicSum.hpp), the batch's results are returned in the order
 // of submission, and the deck a child reads (to_toml) round-trips the configuration exactly.
 //
-// Under MPI (`mpirun -n K tamp diagnose ...`, drivers/Ranks.hpp) the K ranks share each
+// Under MPI (`mpirun -n K tamp diagnose ...`, drivers/loop/Ranks.hpp) the K ranks share each
 // batch: the k-th run to do goes to rank k mod K, which runs it as above, and the results
 // are exchanged (MPI_Allgatherv of their JSON) so that every rank continues the same fit
 // with the same numbers; rank 0 writes the result files.
@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "core/Config.hpp"
-#include "drivers/Calibration.hpp"
+#include "drivers/loop/Calibration.hpp"
 
 namespace tamp {
 

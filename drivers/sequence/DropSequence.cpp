@@ -1,4 +1,4 @@
-#include "drivers/DropSequence.hpp"
+#include "drivers/sequence/DropSequence.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -172,25 +172,48 @@ void DropSequence::begin_impact(const Stage& s) {
   rec.drop_height_m = cfg_.schedule.drop_heights[s.blow - 1];
 }
 
-// The energies the blow's account differences, in this order: pounder (kinetic +
-// potential), contact, damping / boundary / wall-friction / artificial-stress work (EnergyLedger), then per
-// material kinetic, internal, potential, elastic, numerical heat (the particles' viscous
-// heat and the tied elements' hourglass work), then the tied elements' nodes: motion,
-// boundary work, damping work (zero without elements), then the work of the axis and wall
-// images (appended last, so that a checkpoint written before them still reads).
-std::vector<double> DropSequence::energy_state() const {
+std::vector<double> BlowEnergies::flat() const {
+  if (!known) return {};
+  std::vector<double> e{pounder, contact, damping, boundary, wall_friction, artificial_stress};
+  for (const Material& m : materials)
+    for (double v : {m.kinetic, m.internal, m.potential, m.elastic, m.numerical_heat}) e.push_back(v);
+  for (double v : {node_motion, node_boundary, node_damping, axis_images, wall_images}) e.push_back(v);
+  return e;
+}
+
+BlowEnergies BlowEnergies::from_flat(const std::vector<double>& v, size_t n_materials) {
+  size_t k = 0;
+  auto next = [&] { return k < v.size() ? v[k++] : std::numeric_limits<double>::quiet_NaN(); };
+  BlowEnergies e;
+  e.known = !v.empty();
+  for (double* x : {&e.pounder, &e.contact, &e.damping, &e.boundary, &e.wall_friction, &e.artificial_stress}) *x = next();
+  e.materials.resize(n_materials);
+  for (Material& m : e.materials)
+    for (double* x : {&m.kinetic, &m.internal, &m.potential, &m.elastic, &m.numerical_heat}) *x = next();
+  for (double* x : {&e.node_motion, &e.node_boundary, &e.node_damping, &e.axis_images, &e.wall_images}) *x = next();
+  return e;
+}
+
+BlowEnergies DropSequence::energy_state() const {
   const EnergyLedger& L = sim_.ledger();
-  std::vector<double> e{sim_.body_energy(), sim_.contact_energy(), L.damping_J, L.boundary_J, L.wall_friction_J,
-                        L.artificial_stress_J};
+  BlowEnergies e;
+  e.known = true;
+  e.pounder = sim_.body_energy();
+  e.contact = sim_.contact_energy();
+  e.damping = L.damping_J;
+  e.boundary = L.boundary_J;
+  e.wall_friction = L.wall_friction_J;
+  e.artificial_stress = L.artificial_stress_J;
   const std::vector<MaterialEnergy> me = sim_.material_energies();
   for (size_t k = 0; k < me.size(); ++k)
-    for (double v : {me[k].kinetic, me[k].internal, me[k].potential, me[k].elastic, L.heat_J[k] + me[k].hourglass})
-      e.push_back(v);
+    e.materials.push_back({me[k].kinetic, me[k].internal, me[k].potential, me[k].elastic, L.heat_J[k] + me[k].hourglass});
   const ElementNodeEnergy n = sim_.element_node_energy();
-  for (double v : {n.motion, n.boundary_work, n.damping_work}) e.push_back(v);
+  e.node_motion = n.motion;
+  e.node_boundary = n.boundary_work;
+  e.node_damping = n.damping_work;
   const ImageWork images = sim_.image_work();
-  e.push_back(images.axis_J);
-  e.push_back(images.walls_J);
+  e.axis_images = images.axis_J;
+  e.wall_images = images.walls_J;
   return e;
 }
 
@@ -343,34 +366,34 @@ void DropSequence::end_impact(BlowRecord& rec) {
   rec.flight_time_s = flight_time_;
   rec.ballistic_time_s = ballistic_time_;
   rec.rest_time_s = phase_ == 1 ? sim_.time() - rest_since_ : 0.0;
-  const std::vector<double> e1 = energy_state();
-  const std::vector<double>& e0 = energy0_;
-  // (a checkpoint from before the elements' terms holds fewer: those count from here)
-  auto d = [&](size_t k) { return k < e0.size() ? e1[k] - e0[k] : 0.0; };
-  rec.energy_in_J = -d(0);
-  rec.contact_J = d(1);
-  rec.damping_J = -d(2);
-  rec.radiated_J = -d(3);
-  rec.wall_friction_J = -d(4);
-  rec.artificial_stress_J = d(5);
+  const BlowEnergies e1 = energy_state();
+  const BlowEnergies& e0 = energy0_;
+  // (a term a checkpoint from before it lacks is NaN in e0: it counts from the restart)
+  auto d = [](double now, double then) { return std::isnan(then) ? 0.0 : now - then; };
+  rec.energy_in_J = -d(e1.pounder, e0.pounder);
+  rec.contact_J = d(e1.contact, e0.contact);
+  rec.damping_J = -d(e1.damping, e0.damping);
+  rec.radiated_J = -d(e1.boundary, e0.boundary);
+  rec.wall_friction_J = -d(e1.wall_friction, e0.wall_friction);
+  rec.artificial_stress_J = d(e1.artificial_stress, e0.artificial_stress);
   rec.elastic_J = rec.soil_motion_J = rec.viscous_heat_J = 0;
   const size_t nm = cfg_.materials.size();
   rec.plastic_J.assign(nm, 0.0);
   double internal = 0;
   for (size_t m = 0; m < nm; ++m) {
-    const size_t k = 6 + 5 * m;
-    rec.soil_motion_J += d(k) + d(k + 2);
-    rec.elastic_J += d(k + 3);
-    rec.viscous_heat_J += d(k + 4);
-    rec.plastic_J[m] = d(k + 1) - d(k + 3) - d(k + 4);
-    internal += d(k + 1);
+    const BlowEnergies::Material& now = e1.materials[m];
+    const BlowEnergies::Material then = m < e0.materials.size() ? e0.materials[m] : BlowEnergies::Material{NAN, NAN, NAN, NAN, NAN};
+    rec.soil_motion_J += d(now.kinetic, then.kinetic) + d(now.potential, then.potential);
+    rec.elastic_J += d(now.elastic, then.elastic);
+    rec.viscous_heat_J += d(now.numerical_heat, then.numerical_heat);
+    rec.plastic_J[m] = d(now.internal, then.internal) - d(now.elastic, then.elastic) - d(now.numerical_heat, then.numerical_heat);
+    internal += d(now.internal, then.internal);
   }
-  const size_t kn = 6 + 5 * nm;  // the tied elements' nodes
-  rec.soil_motion_J += d(kn);
-  rec.radiated_J -= d(kn + 1);
-  rec.damping_J -= d(kn + 2);
-  rec.axis_images_J = d(kn + 3);
-  rec.wall_images_J = d(kn + 4);
+  rec.soil_motion_J += d(e1.node_motion, e0.node_motion);  // the tied elements' nodes
+  rec.radiated_J -= d(e1.node_boundary, e0.node_boundary);
+  rec.damping_J -= d(e1.node_damping, e0.node_damping);
+  rec.axis_images_J = d(e1.axis_images, e0.axis_images);
+  rec.wall_images_J = d(e1.wall_images, e0.wall_images);
   rec.residual_J = rec.energy_in_J + rec.artificial_stress_J + rec.axis_images_J + rec.wall_images_J -
                    (rec.soil_motion_J + internal + rec.contact_J + rec.radiated_J + rec.damping_J + rec.wall_friction_J);
 }
@@ -504,7 +527,7 @@ Checkpoint DropSequence::checkpoint() {
   c.scalars["seq_relax_since"] = relax_since_;
   c.scalars["seq_relaxed_flight"] = relaxed_flight_;
   c.scalars["seq_ballistic_time"] = ballistic_time_;
-  c.reals["seq_energy0"].values = energy0_;
+  c.reals["seq_energy0"].values = energy0_.flat();
   for (int k = 0; k < static_cast<int>(Phase::Count); ++k)  // steps, simulated s, wall s
     c.reals["seq_phase_time"].values.insert(c.reals["seq_phase_time"].values.end(),
                                             {double(phase_time_[k].steps), phase_time_[k].simulated_s,
@@ -570,7 +593,8 @@ void DropSequence::restore(const Checkpoint& c) {
   relax_since_ = c.scalars.count("seq_relax_since") ? c.scalars.at("seq_relax_since") : -1.0;
   relaxed_flight_ = c.scalars.count("seq_relaxed_flight") ? c.scalars.at("seq_relaxed_flight") : -1.0;
   ballistic_time_ = opt("seq_ballistic_time");
-  energy0_ = c.reals.count("seq_energy0") ? c.reals.at("seq_energy0").values : std::vector<double>{};
+  energy0_ = BlowEnergies::from_flat(c.reals.count("seq_energy0") ? c.reals.at("seq_energy0").values : std::vector<double>{},
+                                     cfg_.materials.size());
   if (c.reals.count("seq_phase_time")) {  // older checkpoints have none: timing starts at 0
     const auto& v = c.reals.at("seq_phase_time").values;
     for (int k = 0; k < static_cast<int>(Phase::Count) && 3 * k + 2 < static_cast<int>(v.size()); ++k)
@@ -745,7 +769,7 @@ Phase DropSequence::step_phase(const Stage& s) const {
 
 bool DropSequence::run(int stop_after, const std::function<bool()>& keep_going) {
   stop_after_ = stop_after;
-  run_steps(*this, keep_going);  // drivers/RunLoop.hpp
+  run_steps(*this, keep_going);  // drivers/sequence/RunLoop.hpp
   return next_stage_ >= static_cast<int>(stages_.size());
 }
 
@@ -878,32 +902,30 @@ void DropSequence::write_tables(double wall_s) const {
   std::vector<std::vector<double>> crow;
   for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m, r.solid_diameter_m});
   write_csv(out_ + "/column.csv", {"depth_m", "diameter_m", "solid_diameter_m"}, crow);
-  nlohmann::ordered_json js;  // every number to full (round-trip) precision; NaN as null
-  for (const auto& [key, value] : summary(wall_s)) js[key] = value;
-  std::ofstream(out_ + "/summary.json") << js.dump(2) << "\n";
+  std::ofstream(out_ + "/summary.json") << run_summary_json(summary(wall_s));
 }
 
-std::vector<std::pair<std::string, double>> DropSequence::summary(double wall_s) const {
+RunSummary DropSequence::summary(double wall_s) const {
   const ParticleSurvey now = survey();  // one binning for every measurement
   const ColumnSummary c = column(now);
-  int completed = 0;
-  for (const auto& b : blows_) completed += b.crater_depth_m != 0.0 ? 1 : 0;
-  return {{"column_length_m", c.length_m},
-          {"head_diameter_m", c.head_diameter_m},
-          {"max_diameter_m", c.max_diameter_m},
-          {"base_diameter_m", c.base_diameter_m},
-          {"head_solid_diameter_m", c.head_solid_diameter_m},
-          {"max_solid_diameter_m", c.max_solid_diameter_m},
-          {"uplift_m", uplift(now)},
-          {"aggregate_total_kg", c.aggregate_kg},
-          {"blows_completed", double(completed)},
-          {"steps", double(sim_.steps())},
-          {"wall_s", wall_s},
-          {"particles", double(sim_.particle_count())},
-          {"simulated_time_s", sim_.time()},
-          {"spacing_m", cfg_.sph.spacing},
-          {"heave_volume_m3", heave_volume(now)},
-          {"aggregate_volume_below_ground_m3", now.volume_below(backfill_material_, ground_)}};
+  RunSummary s;
+  for (const auto& b : blows_) s.blows_completed += b.crater_depth_m != 0.0 ? 1 : 0;
+  s.column_length_m = c.length_m;
+  s.head_diameter_m = c.head_diameter_m;
+  s.max_diameter_m = c.max_diameter_m;
+  s.base_diameter_m = c.base_diameter_m;
+  s.head_solid_diameter_m = c.head_solid_diameter_m;
+  s.max_solid_diameter_m = c.max_solid_diameter_m;
+  s.uplift_m = uplift(now);
+  s.aggregate_total_kg = c.aggregate_kg;
+  s.steps = sim_.steps();
+  s.wall_s = wall_s;
+  s.particles = static_cast<long>(sim_.particle_count());
+  s.simulated_time_s = sim_.time();
+  s.spacing_m = cfg_.sph.spacing;
+  s.heave_volume_m3 = heave_volume(now);
+  s.aggregate_volume_below_ground_m3 = now.volume_below(backfill_material_, ground_);
+  return s;
 }
 
 double DropSequence::heave_volume() const { return heave_volume(survey()); }

@@ -1,5 +1,5 @@
-// The one run loop of `tamp run`. A plain run (drivers/PlainRun.hpp: one stage of dynamics
-// with snapshots at output_interval) and a drop sequence (drivers/DropSequence.hpp: relax,
+// The one run loop of `tamp run`. A plain run (drivers/sequence/PlainRun.hpp: one stage of dynamics
+// with snapshots at output_interval) and a drop sequence (drivers/sequence/DropSequence.hpp: relax,
 // impacts, extractions, backfills) are both a Run: each knows how to take one step, what to
 // write when it is interrupted or fails, and where its last good checkpoint is. The loop, the
 // Ctrl-C handling and the one-line error messages are written once, here.

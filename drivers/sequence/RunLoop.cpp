@@ -1,10 +1,10 @@
-#include "drivers/RunLoop.hpp"
+#include "drivers/sequence/RunLoop.hpp"
 
 #include <chrono>
 #include <stdexcept>
 
 #include "core/Log.hpp"
-#include "drivers/Simulation.hpp"
+#include "kernels/solver/Simulation.hpp"
 
 namespace tamp {
 

@@ -1,4 +1,4 @@
-#include "drivers/Calibration.hpp"
+#include "drivers/loop/Calibration.hpp"
 #include "models/MaterialModel.hpp"
 
 #include <Eigen/Dense>
@@ -23,10 +23,10 @@
 #include "core/Deck.hpp"
 #include "core/Format.hpp"
 #include "core/Log.hpp"
-#include "drivers/DropSequence.hpp"
-#include "drivers/ForwardRuns.hpp"
-#include "drivers/Ranks.hpp"
-#include "drivers/Simulation.hpp"
+#include "drivers/sequence/DropSequence.hpp"
+#include "drivers/loop/ForwardRuns.hpp"
+#include "drivers/loop/Ranks.hpp"
+#include "kernels/solver/Simulation.hpp"
 #include "drivers/loop/EmulatedFit.hpp"
 
 namespace tamp {
@@ -45,13 +45,12 @@ RunOutputs run_forward(const Config& cfg, const std::string& dir) {
     DropSequence seq(sim, cfg, dir);
     seq.set_stage_files(false);
     seq.run();
-    for (const auto& [k, v] : seq.summary(0.0)) o.summary[k] = v;
-    for (const auto& b : seq.blows())
-      o.blows.push_back({{"crater_depth_m", b.crater_depth_m},
-                         {"penetration_m", b.penetration_m},
-                         {"peak_deceleration_m_s2", b.peak_deceleration_m_s2},
-                         {"uplift_m", b.uplift_m},
-                         {"aggregate_added_kg", b.aggregate_added_kg}});
+    o.summary = summary_values(seq.summary(0.0));
+    for (const auto& b : seq.blows()) {  // every column of blows.csv's table, as a run folder has them
+      std::map<std::string, double> row;
+      for (const auto& col : blow_columns()) row[col.name] = b.*col.field;
+      o.blows.push_back(row);
+    }
   } catch (...) {
     log::set_level(level);
     throw;
@@ -71,39 +70,7 @@ RunOutputs read_run_dir(const std::string& dir) {
     if (!std::filesystem::exists(summary, ec))
       throw std::invalid_argument(printable(summary) + " does not exist (is '" + printable(dir) + "' a finished tamp run?)");
   }
-  require_regular_file(summary, "run summary (JSON)");
-  std::ifstream js(summary);
-  std::stringstream js_text;
-  js_text << js.rdbuf();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(js_text.str());
-  } catch (const nlohmann::json::out_of_range& e) {
-    // a number beyond double (1e999): name its key, the text before it
-    // (the library's message quotes the number: "number overflow parsing '1e999'")
-    const std::string text = js_text.str(), what = e.what();
-    std::string key = "?", number;
-    const size_t a = what.find('\''), b = a == std::string::npos ? a : what.find('\'', a + 1);
-    if (b != std::string::npos) number = what.substr(a + 1, b - a - 1);
-    const size_t at = number.empty() ? std::string::npos : text.find(number);
-    const size_t colon = at == std::string::npos ? at : text.rfind(':', at);
-    if (colon != std::string::npos) {
-      const size_t q1 = text.rfind('"', colon), q0 = q1 == std::string::npos || q1 == 0 ? std::string::npos : text.rfind('"', q1 - 1);
-      if (q0 != std::string::npos) key = text.substr(q0 + 1, q1 - q0 - 1);
-    }
-    throw std::invalid_argument(printable(summary) + ": \"" + printable(key, 60) + "\" is " + printable(number, 60) +
-                                ", beyond the range of a double; allowed: a finite number or null");
-  } catch (const nlohmann::json::exception& e) {
-    throw std::invalid_argument(printable(summary) + " is not valid JSON (" + printable(e.what()) + ")");
-  }
-  if (!j.is_object() || j.empty())
-    throw std::invalid_argument(summary + " is not a JSON object of the run's quantities (found " +
-                                std::string(j.type_name()) + ")");
-  for (const auto& [key, value] : j.items()) {
-    if (value.is_number()) o.summary[key] = value.get<double>();
-    else if (value.is_null()) o.summary[key] = std::numeric_limits<double>::quiet_NaN();
-    else throw std::invalid_argument(printable(summary) + ": \"" + printable(key, 60) + "\" is " + printable(value.dump(), 60) + "; allowed: a number or null");
-  }
+  o.summary = read_run_summary(summary);
   const std::string table = dir + "/blows.csv";
   {
     std::error_code ec;

@@ -59,7 +59,7 @@ struct MaterialSpec {
   double reference_strain_rate = 1.0; // 1/s
   double remoulded_ratio = 1.0;   // -, remoulded / intact strength
   double remoulding_strain = 1.0; // -, plastic shear strain at 95 % of the loss
-  // The keys of models that declare no member above (models/MaterialModel.hpp, ModelKey).
+  // The keys of models that declare no member above (core/MaterialModel.hpp, ModelKey).
   std::map<std::string, double> params;
 };
 

@@ -3,7 +3,7 @@
 #include "core/Deck.hpp"
 #include "core/ParticleGrid.hpp"
 #include "core/Range.hpp"
-#include "models/MaterialModel.hpp"
+#include "core/MaterialModel.hpp"
 
 #include <algorithm>
 #include <array>
@@ -413,7 +413,7 @@ void read_sph(const Table& top, SphSpec& sph) {
 }
 
 // A material: its name, its model (a registered one, models/ModelList.hpp), then exactly the
-// keys that model declares (models/MaterialModel.hpp), each with its declared range.
+// keys that model declares (core/MaterialModel.hpp), each with its declared range.
 MaterialSpec read_material(const Reporter& rep, const toml::table& tbl, const std::string& prefix,
                            const std::vector<MaterialSpec>& earlier) {
   std::vector<std::string> every_key = {"name", "model", "unit_weight"};

@@ -1,6 +1,6 @@
 // Allowed ranges of input numbers, with the text an error message shows ("0 <= nu < 0.5",
 // "spacing > 0 (m)"). Shared by the deck reader (core/Deck.cpp) and the material model
-// descriptions (models/MaterialModel.hpp), which declare each key's range once.
+// descriptions (core/MaterialModel.hpp), which declare each key's range once.
 #pragma once
 #include <cmath>
 #include <optional>

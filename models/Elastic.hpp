@@ -3,7 +3,7 @@
 // inside Kokkos kernels on every back end. Equations: docs/models.md.
 #pragma once
 #include "core/Material.hpp"
-#include "models/MaterialModel.hpp"
+#include "core/MaterialModel.hpp"
 
 namespace tamp {
 

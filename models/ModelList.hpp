@@ -5,7 +5,7 @@
 //       plastic_strain, compaction, dt);                       (device, after the elastic predictor)
 //   static std::vector<ModelDescription> describe();           (host: deck names and keys)
 // The device dispatch (models/StressUpdate.hpp) and the host registry (models/ModelList.cpp)
-// are generated from this list. Checklist: docs/adding-a-material-model.md.
+// are generated from this list. Checklist: docs/architecture.md "Add a constitutive model".
 #pragma once
 #include "models/Elastic.hpp"
 #include "models/MohrCoulomb.hpp"

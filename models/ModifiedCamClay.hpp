@@ -17,7 +17,7 @@
 //   d eps_v^p = dgamma df/dp = dgamma (2p - p_c),  d eps_q^p = dgamma df/dq = dgamma 2q / M^2
 #pragma once
 #include "core/Material.hpp"
-#include "models/MaterialModel.hpp"
+#include "core/MaterialModel.hpp"
 
 namespace tamp {
 

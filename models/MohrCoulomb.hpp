@@ -11,7 +11,7 @@
 #pragma once
 #include "core/Material.hpp"
 #include "models/Effects.hpp"
-#include "models/MaterialModel.hpp"
+#include "core/MaterialModel.hpp"
 
 namespace tamp {
 

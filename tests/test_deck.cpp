@@ -481,7 +481,7 @@ TEST_CASE("Deck: material rules", "[deck]") {
   }
   SECTION("a key the model does not read") {
     // An elastic material used to accept phi_deg and ignore it: now each model reads only
-    // the keys it declares (models/MaterialModel.hpp).
+    // the keys it declares (core/MaterialModel.hpp).
     Parts p;
     p.materials = head + "model = \"elastic\"\ndensity = 2000\nphi_deg = 30\n";
     require_error(p.text(), {"materials[0].phi_deg = 30", "is not used by model \"elastic\"", "G, nu"});

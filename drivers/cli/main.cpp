@@ -95,7 +95,7 @@ void print_plan(const Config& cfg, const Simulation& sim, std::ostream& os) {
   for (size_t k = 0; k < cfg.materials.size(); ++k) {
     const auto& m = cfg.materials[k];
     const auto& p = sim.materials()[k];
-    // every key the model declares (models/MaterialModel.hpp), effects only when set
+    // every key the model declares (core/MaterialModel.hpp), effects only when set
     os << "  " << m.name << ": " << m.model;
     for (const ModelKey* k : keys_of(material_model(m))) {
       const double x = key_value(m, *k);

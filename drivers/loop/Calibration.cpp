@@ -1,5 +1,5 @@
 #include "drivers/loop/Calibration.hpp"
-#include "models/MaterialModel.hpp"
+#include "core/MaterialModel.hpp"
 
 #include <Eigen/Dense>
 #include <unsupported/Eigen/SpecialFunctions>  // igammac: the chi-square goodness of fit
@@ -135,7 +135,7 @@ double* param_ref(Config& cfg, const std::string& name) {
     if (key == "decay") return &cfg.contact.decay;
     throw std::invalid_argument("parameter '" + name + "' is not known; allowed: " + contact_keys);
   }
-  // The fittable keys of the material's model (models/MaterialModel.hpp).
+  // The fittable keys of the material's model (core/MaterialModel.hpp).
   for (auto& m : cfg.materials) {
     if (m.name != owner) continue;
     for (const ModelKey* k : keys_of(material_model(m)))

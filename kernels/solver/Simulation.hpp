@@ -27,7 +27,7 @@
 #include "kernels/Tie.hpp"
 #include "kernels/TieConstruction.hpp"
 #include "kernels/WallFriction.hpp"
-#include "models/MaterialModel.hpp"
+#include "core/MaterialModel.hpp"
 
 namespace tamp {
 

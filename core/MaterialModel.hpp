@@ -1,4 +1,6 @@
-// What a constitutive model declares about itself, once, on the host: its deck name, the
+// What a constitutive model declares about itself, once, on the host (the types here, in core/
+// because the deck reader reads them; each model's description in its own header under models/,
+// the registry filled by models/ModelList.cpp): its deck name, the
 // deck keys it reads (unit, allowed range, default, which calibration may fit), how they
 // become the plain-data MaterialParams the kernels use, its cross-key rules and the history
 // variables it updates. The deck reader and writer (core/Deck.cpp), make_material, the plan
@@ -6,7 +8,7 @@
 // these descriptions; the device update of each model lives in its own header and is
 // dispatched by MaterialParams::model (models/StressUpdate.hpp). Adding a model: its header
 // (device update + describe()), one line in models/ModelList.hpp, its test, its docs page
-// (docs/adding-a-material-model.md).
+// (docs/architecture.md "Add a constitutive model").
 #pragma once
 #include <map>
 #include <optional>

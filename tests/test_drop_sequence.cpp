@@ -506,3 +506,63 @@ TEST_CASE("Column: head, widest band and length measured in bands fixed below th
     }
   }
 }
+
+// The other measurements of a blow, each alone on particles laid by hand (kernels/DropMeasures.hpp):
+// a clay lattice whose top is the ground (centres at ground - (k + 1/2) dp, top = centre + dp/2),
+// a ring of one more row from r = 0.07 to 0.12 m (the heave: its top dp above the ground), a
+// crater of three rows under the pounder's base (r < 0.04 m), and one particle splashed 5 dp
+// up with no neighbour (not ground). Exact by construction: the uplift is dp, the heave volume
+// the sum of the raised rings' volumes 2 pi r_c dp^2 outside the pounder's widest radius, the
+// crater floor 3 dp below the ground, the top under the pounder the highest centre there.
+TEST_CASE("Measurements: uplift, heave volume and crater floor of a surface laid by hand", "[drop-sequence][column]") {
+  const double dp = 0.01, ground = 0.3, rho = 1900.0;
+  const int rings = 30, rows = 12;
+  std::vector<std::array<double, 2>> xs;
+  for (int i = 0; i < rings; ++i) {
+    const double rc = (i + 0.5) * dp;
+    for (int k = (rc < 0.04 ? 3 : 0); k < rows; ++k) xs.push_back({rc, ground - (k + 0.5) * dp});
+    if (rc > 0.07 && rc < 0.12) xs.push_back({rc, ground + 0.5 * dp});
+  }
+  xs.push_back({0.095, ground + 5.5 * dp});  // a splash
+  tamp::Particles P;
+  const int N = static_cast<int>(xs.size());
+  P.reserve(N);
+  P.n_real = N;
+  auto x = Kokkos::create_mirror_view(P.x);
+  auto m = Kokkos::create_mirror_view(P.mass);
+  auto r = Kokkos::create_mirror_view(P.rho);
+  auto mat = Kokkos::create_mirror_view(P.material);
+  for (int p = 0; p < N; ++p) {
+    x(p, 0) = xs[p][0];
+    x(p, 1) = xs[p][1];
+    r(p) = rho;
+    m(p) = rho * 2 * tamp::pi * xs[p][0] * dp * dp;
+    mat(p) = 0;
+  }
+  Kokkos::deep_copy(P.x, x);
+  Kokkos::deep_copy(P.mass, m);
+  Kokkos::deep_copy(P.rho, r);
+  Kokkos::deep_copy(P.material, mat);
+  const tamp::ParticleSurvey survey(P, dp);
+  tamp::DropGeometry g;
+  g.ground = ground;
+  g.spacing = dp;
+  g.pounder_max_diameter = 0.1;
+  g.pounder_base_diameter = 0.08;
+  g.domain_r_max = rings * dp;
+  double heave = 0;
+  for (int i = 0; i < rings; ++i) {
+    const double rc = (i + 0.5) * dp;
+    if (rc > 0.07 && rc < 0.12 && rc >= 0.05) heave += 2 * tamp::pi * rc * dp * dp;
+  }
+  CHECK(tamp::uplift(survey, g) == Approx(dp).epsilon(1e-12));
+  CHECK(tamp::heave_volume(survey, g) == Approx(heave).epsilon(1e-12));
+  CHECK(tamp::crater_floor(survey, g) == Approx(3 * dp).epsilon(1e-12));
+  // the highest centre whose column overlaps the pounder's widest radius (0.05 + dp/2): the splash at 0.095 is
+  // outside it, the heave ring's first particles (r 0.075) too, so the lattice's top row
+  CHECK(tamp::surface_under_pounder(survey, g) == Approx(ground - 0.5 * dp).epsilon(1e-12));
+  // without the heave ring's window: an uplift measured further out sees the flat ground
+  g.pounder_max_diameter = 0.3;
+  CHECK(tamp::uplift(survey, g) == Approx(0.0).margin(1e-12));
+  CHECK(tamp::heave_volume(survey, g) == Approx(0.0).margin(1e-15));
+}

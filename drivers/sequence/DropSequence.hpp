@@ -18,6 +18,7 @@
 #include "core/Config.hpp"
 #include "core/Output.hpp"
 #include "core/RunSummary.hpp"
+#include "kernels/DropMeasures.hpp"
 #include "drivers/sequence/RunLoop.hpp"
 #include "kernels/solver/Simulation.hpp"
 #include "kernels/Measurements.hpp"
@@ -71,22 +72,7 @@ struct BlowColumn {
 };
 const std::vector<BlowColumn>& blow_columns();
 
-struct ColumnRow {
-  double depth_m;           // below the original ground level, centre of the band
-  double diameter_m;        // of the column in the band: the hole in the soil it fills
-  double solid_diameter_m;  // of the solid cylinder holding the band's aggregate volume
-};
-
-struct ColumnSummary {
-  double length_m = 0, head_diameter_m = 0, max_diameter_m = 0, base_diameter_m = 0;
-  double head_solid_diameter_m = 0, max_solid_diameter_m = 0;  // the same from the solid diameters
-  double aggregate_kg = 0;
-  std::vector<ColumnRow> rows;
-};
-
-// The column of aggregate (material `aggregate`) the particles hold, measured in bands of
-// one spacing dp below the original ground level `ground` (m): docs/drop-sequence.md.
-ColumnSummary measure_column(const ParticleSurvey& survey, int aggregate, double ground, double dp);
+// ColumnRow, ColumnSummary, measure_column and the other measurements: kernels/DropMeasures.hpp.
 
 enum class StageKind { Relax, Impact, Extract, Backfill };
 // Where the steps and the wall time of a drop sequence go (timing.csv): the impact stages
@@ -184,6 +170,7 @@ class DropSequence : public Run {
   void progress(int k, bool force);
   Checkpoint checkpoint();
   double surface_under_pounder() const;
+  DropGeometry geometry() const;  // what the measurements need of the deck
   // The measurements from one binning of the particles (kernels/Measurements.hpp).
   ParticleSurvey survey() const;
   ColumnSummary column(const ParticleSurvey& s) const;

@@ -1,4 +1,6 @@
 #include "kernels/solver/Simulation.hpp"
+
+#include <Kokkos_Sort.hpp>
 #include "kernels/DeterministicSum.hpp"
 #include "core/Format.hpp"
 #include "core/ParticleGrid.hpp"
@@ -333,30 +335,49 @@ std::vector<int> Simulation::sort_by_cell() {
   const int n = P.n_real;
   std::vector<int> new_of_old(n);
   if (n == 0) return new_of_old;
-  // the whole view (the rows of the real particles are not contiguous on the GPU, and Kokkos
-  // has no device-to-host copy of a strided view); rows n and beyond are not read
-  auto x = Kokkos::create_mirror_view_and_copy(HostSpace(), P.x);
-  double r0 = x(0, 0), z0 = x(0, 1), r1 = r0;
-  for (int i = 1; i < n; ++i) {
-    r0 = std::min(r0, x(i, 0));
-    r1 = std::max(r1, x(i, 0));
-    z0 = std::min(z0, x(i, 1));
-  }
+  // On the device: each particle's cell key (z row first), made unique by its index
+  // (key * n + i), sorted; the order is that of a stable sort by cell, whatever the back end
+  // or thread count (the keys are unique, so every sort gives the same order).
+  const auto x = P.x;
+  using MinMax = Kokkos::MinMax<double>;
+  MinMax::value_type rr, zz;
+  Kokkos::parallel_reduce(
+      "tamp::sort::extent_r", Kokkos::RangePolicy<ExecSpace>(0, n),
+      KOKKOS_LAMBDA(int i, MinMax::value_type& v) {
+        v.min_val = math::min(v.min_val, x(i, 0));
+        v.max_val = math::max(v.max_val, x(i, 0));
+      },
+      MinMax(rr));
+  Kokkos::parallel_reduce(
+      "tamp::sort::extent_z", Kokkos::RangePolicy<ExecSpace>(0, n),
+      KOKKOS_LAMBDA(int i, MinMax::value_type& v) {
+        v.min_val = math::min(v.min_val, x(i, 1));
+        v.max_val = math::max(v.max_val, x(i, 1));
+      },
+      MinMax(zz));
+  const double r0 = rr.min_val, z0 = zz.min_val;
   const double cell = 2.0 * sph_.h + skin_;
-  const long nr = static_cast<long>((r1 - r0) / cell) + 1;
-  std::vector<long> key(n);
-  for (int i = 0; i < n; ++i)
-    key[i] = static_cast<long>((x(i, 1) - z0) / cell) * nr + static_cast<long>((x(i, 0) - r0) / cell);
-  std::vector<int> old_of_new(n);
-  for (int i = 0; i < n; ++i) old_of_new[i] = i;
-  std::stable_sort(old_of_new.begin(), old_of_new.end(), [&](int a, int b) { return key[a] < key[b]; });
+  const long nr = static_cast<long>((rr.max_val - r0) / cell) + 1;
+  const long nz = static_cast<long>((zz.max_val - z0) / cell) + 1;
+  if (static_cast<double>(nr) * static_cast<double>(nz) * static_cast<double>(n) > 9.0e18)
+    throw std::runtime_error("sort_by_cell: " + std::to_string(nr * nz) + " cells x " + std::to_string(n) +
+                             " particles do not fit a 64-bit key");
+  View1<long> key("tamp::cell_key", n);
+  const long nl = n;
+  Kokkos::parallel_for(
+      "tamp::sort::keys", Kokkos::RangePolicy<ExecSpace>(0, n), KOKKOS_LAMBDA(int i) {
+        const long cell_key = static_cast<long>((x(i, 1) - z0) / cell) * nr + static_cast<long>((x(i, 0) - r0) / cell);
+        key(i) = cell_key * nl + i;
+      });
+  Kokkos::sort(key);
   View1<int> order("tamp::cell_order", n);
-  auto order_h = Kokkos::create_mirror_view(order);
-  for (int i = 0; i < n; ++i) {
-    order_h(i) = old_of_new[i];
-    new_of_old[old_of_new[i]] = i;
+  Kokkos::parallel_for(
+      "tamp::sort::order", Kokkos::RangePolicy<ExecSpace>(0, n),
+      KOKKOS_LAMBDA(int j) { order(j) = static_cast<int>(key(j) % nl); });
+  {  // the caller's map of old to new numbers (the tracers follow it)
+    auto order_h = Kokkos::create_mirror_view_and_copy(HostSpace(), order);
+    for (int j = 0; j < n; ++j) new_of_old[order_h(j)] = j;
   }
-  Kokkos::deep_copy(order, order_h);
   P.permute_real(order);
   for (const auto& part : acceleration_parts())
     if (static_cast<int>(part.second->extent(0)) >= n) permute_rows(*part.second, order, n);

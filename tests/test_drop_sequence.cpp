@@ -434,6 +434,34 @@ TEST_CASE("Restart: from the end of an extraction or a charge, through charges a
   check_restarts_exact({"006-extract-blow03", "007-backfill-blow03"}, "exact");
 }
 
+namespace {
+// Real particles at the points xs (r, z) with materials mats, each a ring of one spacing
+// square at density rho (mass rho 2 pi r dp^2): the measurements' tests lay them by hand.
+tamp::Particles laid_by_hand(const std::vector<std::array<double, 2>>& xs, const std::vector<int>& mats, double dp,
+                             double rho) {
+  tamp::Particles P;
+  const int N = static_cast<int>(xs.size());
+  P.reserve(N);
+  P.n_real = N;
+  auto x = Kokkos::create_mirror_view(P.x);
+  auto m = Kokkos::create_mirror_view(P.mass);
+  auto r = Kokkos::create_mirror_view(P.rho);
+  auto mat = Kokkos::create_mirror_view(P.material);
+  for (int p = 0; p < N; ++p) {
+    x(p, 0) = xs[p][0];
+    x(p, 1) = xs[p][1];
+    r(p) = rho;
+    m(p) = rho * 2 * tamp::pi * xs[p][0] * dp * dp;
+    mat(p) = mats[p];
+  }
+  Kokkos::deep_copy(P.x, x);
+  Kokkos::deep_copy(P.mass, m);
+  Kokkos::deep_copy(P.rho, r);
+  Kokkos::deep_copy(P.material, mat);
+  return P;
+}
+}  // namespace
+
 // The column measure (docs/drop-sequence.md "Column"): a column of known diameter 2 n dp on a
 // lattice in a clay wall, with grains heaped above the original ground at heights that put
 // the aggregate's top anywhere within a spacing. Exact answers (1e-12 relative, round-off):
@@ -470,25 +498,9 @@ TEST_CASE("Column: head, widest band and length measured in bands fixed below th
             for (int i = n; i < n + 5; ++i) xs.push_back({(i + 0.5) * dp, ground - (k + 0.5) * dp});
           if (variant == 1) xs.push_back({1.5 * dp, ground - 10.3 * dp + shift});  // a lone entrained clay particle
         }
-        tamp::Particles P;
-        const int N = static_cast<int>(xs.size());
-        P.reserve(N);
-        P.n_real = N;
-        auto x = Kokkos::create_mirror_view(P.x);
-        auto m = Kokkos::create_mirror_view(P.mass);
-        auto r = Kokkos::create_mirror_view(P.rho);
-        auto mat = Kokkos::create_mirror_view(P.material);
-        for (int p = 0; p < N; ++p) {
-          x(p, 0) = xs[p][0];
-          x(p, 1) = xs[p][1];
-          r(p) = rho;
-          m(p) = rho * 2 * tamp::pi * xs[p][0] * dp * dp;
-          mat(p) = p < n_agg ? aggregate : 1;
-        }
-        Kokkos::deep_copy(P.x, x);
-        Kokkos::deep_copy(P.mass, m);
-        Kokkos::deep_copy(P.rho, r);
-        Kokkos::deep_copy(P.material, mat);
+        std::vector<int> mats(xs.size(), 1);
+        std::fill(mats.begin(), mats.begin() + n_agg, aggregate);
+        const tamp::Particles P = laid_by_hand(xs, mats, dp, rho);
         const tamp::ColumnSummary c = tamp::measure_column(tamp::ParticleSurvey(P, dp), aggregate, ground, dp);
         INFO("variant " << variant << ", lattice shift " << shift << " m, heap top " << heap_top
                         << " m above the ground: head " << c.head_diameter_m << " (solid " << c.head_solid_diameter_m
@@ -524,25 +536,7 @@ TEST_CASE("Measurements: uplift, heave volume and crater floor of a surface laid
     if (rc > 0.07 && rc < 0.12) xs.push_back({rc, ground + 0.5 * dp});
   }
   xs.push_back({0.095, ground + 5.5 * dp});  // a splash
-  tamp::Particles P;
-  const int N = static_cast<int>(xs.size());
-  P.reserve(N);
-  P.n_real = N;
-  auto x = Kokkos::create_mirror_view(P.x);
-  auto m = Kokkos::create_mirror_view(P.mass);
-  auto r = Kokkos::create_mirror_view(P.rho);
-  auto mat = Kokkos::create_mirror_view(P.material);
-  for (int p = 0; p < N; ++p) {
-    x(p, 0) = xs[p][0];
-    x(p, 1) = xs[p][1];
-    r(p) = rho;
-    m(p) = rho * 2 * tamp::pi * xs[p][0] * dp * dp;
-    mat(p) = 0;
-  }
-  Kokkos::deep_copy(P.x, x);
-  Kokkos::deep_copy(P.mass, m);
-  Kokkos::deep_copy(P.rho, r);
-  Kokkos::deep_copy(P.material, mat);
+  const tamp::Particles P = laid_by_hand(xs, std::vector<int>(xs.size(), 0), dp, rho);
   const tamp::ParticleSurvey survey(P, dp);
   tamp::DropGeometry g;
   g.ground = ground;

@@ -339,6 +339,20 @@ Simulation::Added Simulation::add_particles(const std::vector<NewParticle>& list
   return result;
 }
 
+namespace {
+// The smallest and largest of coordinate c of the particles (a functor, not a lambda: CUDA
+// takes no device lambda inside a host lambda).
+template <class X>
+struct CoordinateExtent {
+  X x;
+  int c;
+  KOKKOS_INLINE_FUNCTION void operator()(int i, Kokkos::MinMax<double>::value_type& e) const {
+    e.min_val = math::min(e.min_val, x(i, c));
+    e.max_val = math::max(e.max_val, x(i, c));
+  }
+};
+}  // namespace
+
 std::vector<int> Simulation::sort_by_cell() {
   Particles& P = particles_;
   const int n = P.n_real;
@@ -349,21 +363,13 @@ std::vector<int> Simulation::sort_by_cell() {
   // or thread count (the keys are unique, so every sort gives the same order).
   const auto x = P.x;
   using MinMax = Kokkos::MinMax<double>;
-  MinMax::value_type rr, zz;
-  Kokkos::parallel_reduce(
-      "tamp::sort::extent_r", Kokkos::RangePolicy<ExecSpace>(0, n),
-      KOKKOS_LAMBDA(int i, MinMax::value_type& v) {
-        v.min_val = math::min(v.min_val, x(i, 0));
-        v.max_val = math::max(v.max_val, x(i, 0));
-      },
-      MinMax(rr));
-  Kokkos::parallel_reduce(
-      "tamp::sort::extent_z", Kokkos::RangePolicy<ExecSpace>(0, n),
-      KOKKOS_LAMBDA(int i, MinMax::value_type& v) {
-        v.min_val = math::min(v.min_val, x(i, 1));
-        v.max_val = math::max(v.max_val, x(i, 1));
-      },
-      MinMax(zz));
+  auto extent = [&](int c) {  // of coordinate c (0: r, 1: z) over the real particles
+    MinMax::value_type v;
+    Kokkos::parallel_reduce("tamp::sort::extent", Kokkos::RangePolicy<ExecSpace>(0, n),
+                            CoordinateExtent<decltype(P.x)>{x, c}, MinMax(v));
+    return v;
+  };
+  const MinMax::value_type rr = extent(0), zz = extent(1);
   const double r0 = rr.min_val, z0 = zz.min_val;
   const double cell = 2.0 * sph_.h + skin_;
   const long nr = static_cast<long>((rr.max_val - r0) / cell) + 1;

@@ -69,5 +69,22 @@ struct MaterialParams {
   }
 };
 
+// History slots a particle or element keeps for its model beyond the two standard variables
+// (MaterialState::history); each model declares how many it uses (its `history_count`, at
+// most this: checked where models are listed, models/ModelList.hpp) and names them
+// (ModelDescription::history). Raise it when a model needs more: every particle and element
+// then carries the larger row.
+constexpr int kHistorySlots = 2;
+
+// What a particle or element carries from step to step for its constitutive model. Every
+// model may update the two standard variables (the quantities the measurements, plots and
+// effects read, as an explicit code reports an effective plastic strain for every material);
+// a model that needs more keeps it in `history`, in the slots it declares. Each starts at 0
+// in a new particle or element.
+struct MaterialState {
+  double plastic_strain = 0;  // accumulated equivalent plastic shear strain, -
+  double compaction = 0;      // plastic volumetric strain, compression positive, -
+  double history[kHistorySlots] = {};
+};
 
 }  // namespace tamp

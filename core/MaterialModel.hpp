@@ -43,13 +43,24 @@ struct RuleBreak {
 };
 using KeyRule = std::optional<RuleBreak> (*)(const MaterialSpec&);
 
+// A history variable a model keeps in a slot of MaterialState::history (core/Material.hpp):
+// particles and elements carry and checkpoint the slots; it starts at 0.
+struct StateVariable {
+  std::string name;     // "back_stress", for the plan and the docs
+  std::string unit;     // SI unit ("Pa", "" = none)
+  std::string meaning;  // one line
+};
+
 struct ModelDescription {
   std::string name;                   // deck name: model = "<name>"
   int kernel = 0;                     // MaterialParams::model (ModelId): the device update it runs
   std::string summary;                // one line for the plan and the docs
   std::vector<ModelKey> keys;         // its own deck keys (density, G, nu are common)
   bool effects = false;               // takes the effect keys of models/Effects.hpp
-  std::vector<std::string> state;     // particle history variables it updates
+  std::vector<std::string> state;     // the standard variables it updates (MaterialState:
+                                      // "plastic_strain", "compaction")
+  std::vector<StateVariable> history; // its own history slots, in slot order: as many as the
+                                      // model's history_count (checked by the registry)
   KeyRule rule = nullptr;             // cross-key rule (e.g. psi <= phi), or none
   // Its keys (already in spec) into the kernel parameters; the common ones are set before.
   void (*to_params)(const MaterialSpec& spec, MaterialParams& params) = nullptr;

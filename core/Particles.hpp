@@ -7,6 +7,7 @@
 #include <type_traits>
 #include <utility>
 #include "core/Config.hpp"
+#include "core/Material.hpp"  // kHistorySlots
 #include "core/Types.hpp"
 
 namespace tamp {
@@ -53,6 +54,7 @@ enum ParticleFlag : int {
   X(pair_stress, double, 3, 0.0, NotSaved, "mp sigma / rho^2 (rr, zz, rz): a particle's share of the pair term") \
   X(plastic_strain, double, 1, 0.0, Saved, "accumulated equivalent plastic shear strain, -")                 \
   X(compaction, double, 1, 0.0, SavedOptional, "plastic volumetric strain, compression positive, -")         \
+  X(history, double, kHistorySlots, 0.0, SavedOptional, "the model's own history slots (MaterialState::history)") \
   X(internal_energy, double, 1, 0.0, Saved, "specific internal energy (strain + dissipated), J/kg")          \
   X(du_visc, double, 1, 0.0, Saved, "rate of viscous heating, W/kg")                                         \
   X(image_force, double, 4, 0.0, SavedOptional, "stress pair force of the mirror images (axis r, z; walls r, z), N/kg") \

@@ -12,6 +12,7 @@
 #include "kernels/BoundaryLoads.hpp"
 #include "kernels/DeterministicSum.hpp"
 #include "kernels/FemQuad.hpp"
+#include "kernels/Geostatic.hpp"
 
 namespace tamp::fem {
 
@@ -123,6 +124,7 @@ class FemModel {
     mesh_.strain_rate = ViewN<double, 4>("fem::strain_rate", ne);
     mesh_.plastic_strain = View1<double>("fem::plastic_strain", ne);
     mesh_.compaction = View1<double>("fem::compaction", ne);
+    mesh_.history = ViewN<double, kHistorySlots>("fem::history", ne);
     mesh_.elem_mass = View1<double>("fem::elem_mass", ne);
     mesh_.volume = View1<double>("fem::volume", ne);
     mesh_.hourglass_force = ViewN<double, 2>("fem::hourglass_force", ne);
@@ -329,6 +331,14 @@ class FemModel {
   }
 
   // Stress of every element (host vector, 4 components rr, zz, tt, rz per element, Pa).
+  // The at-rest stress of the layers at every element's centre (kernels/Geostatic.hpp).
+  void set_geostatic_stress(const GeostaticLayers<>& layers, double k0) {
+    Kokkos::parallel_for("tamp::fem::geostatic_stress", Kokkos::RangePolicy<ExecSpace>(0, mesh_.n_elements),
+                         ElementGeostaticStress{mesh_.x0, mesh_.conn, mesh_.material, mesh_.materials, mesh_.stress,
+                                                layers, k0});
+    forces_valid_ = false;
+  }
+
   void set_element_stress(const std::vector<double>& s) {
     if (s.size() != 4 * static_cast<size_t>(mesh_.n_elements))
       throw std::invalid_argument("FemModel::set_element_stress: size");
@@ -340,7 +350,6 @@ class FemModel {
   }
   // Centre (r, z) of element e's grid cell in the reference configuration, m.
   double element_r0(int e) const { return 0.5 * (grid_.r[element_i(e)] + grid_.r[element_i(e) + 1]); }
-  double element_z0(int e) const { return 0.5 * (grid_.z[element_j(e)] + grid_.z[element_j(e) + 1]); }
 
   // Clock of a restored state (checkpoints): the time, steps and the last step; the forces
   // are recomputed from the restored stresses and positions before the next step.
@@ -450,22 +459,29 @@ class FemModel {
     return out;
   }
 
- private:
-  void element_pass(double dt, double dt_kick) {
+  // One element pass (stress update over dt, then the internal forces) with the constitutive
+  // models of the list Models (models/ModelList.hpp); the steps run it with RegisteredModels,
+  // and a test runs a model of its own through it (tests/test_toy_model.cpp).
+  template <class Models = RegisteredModels>
+  void element_pass_with(double dt, double dt_kick) {
     if (opt_.assembly == ASSEMBLY_ATOMIC) {
-      run_element_pass(atomic_scatter_, dt, dt_kick);
+      run_element_pass<Models>(atomic_scatter_, dt, dt_kick);
     } else {
-      run_element_pass(scatter_, dt, dt_kick);
+      run_element_pass<Models>(scatter_, dt, dt_kick);
     }
   }
 
-  template <class Scatter>
+ private:
+  void element_pass(double dt, double dt_kick) { element_pass_with<RegisteredModels>(dt, dt_kick); }
+
+  template <class Models, class Scatter>
   void run_element_pass(Scatter& scatter, double dt, double dt_kick) {
-    QuadElementPassT<Scatter> pass;
+    QuadElementPassT<Scatter, Models> pass;
     pass.x = mesh_.x; pass.v = mesh_.v; pass.conn = mesh_.conn;
     pass.material = mesh_.material; pass.materials = mesh_.materials;
     pass.stress = mesh_.stress; pass.strain_rate = mesh_.strain_rate;
-    pass.plastic_strain = mesh_.plastic_strain; pass.compaction = mesh_.compaction; pass.elem_mass = mesh_.elem_mass;
+    pass.plastic_strain = mesh_.plastic_strain; pass.compaction = mesh_.compaction; pass.history = mesh_.history;
+    pass.elem_mass = mesh_.elem_mass;
     pass.volume = mesh_.volume; pass.internal_energy = mesh_.internal_energy;
     pass.hourglass_energy = mesh_.hourglass_energy;
     pass.hourglass_force = mesh_.hourglass_force;

@@ -62,6 +62,7 @@ struct FemMesh {
   ViewN<double, 4> strain_rate;           // last step's rate of deformation, 1/s
   View1<double> plastic_strain;           // accumulated equivalent plastic strain
   View1<double> compaction;               // plastic volumetric strain of effect (a), -
+  ViewN<double, kHistorySlots> history;   // the model's own history slots (MaterialState::history)
   View1<double> elem_mass;                // rho0 V0, kg (constant)
   View1<double> volume;                   // current ring volume, m3
   ViewN<double, 2> hourglass_force;       // generalised hourglass force Q (r, z), N
@@ -284,7 +285,8 @@ struct QuadNodeUpdate {
 //   f_int,I = V^{n+1} B_I(x^{n+1})^T sigma^{n+1} + Q gamma_I            (hourglass)
 // Reduces the smallest stable step L / c over the elements (0 for an inverted element).
 // With dt = 0 it only re-evaluates the forces of the current stress.
-template <class Scatter>
+// Models: the constitutive models it dispatches over (models/ModelList.hpp).
+template <class Scatter, class Models = RegisteredModels>
 struct QuadElementPassT {
   ViewN<double, 2> x, v;
   Kokkos::View<int* [4], MemSpace> conn;
@@ -292,6 +294,7 @@ struct QuadElementPassT {
   Kokkos::View<MaterialParams*, MemSpace> materials;
   ViewN<double, 4> stress, strain_rate;
   View1<double> plastic_strain, compaction, elem_mass, volume, internal_energy, hourglass_energy;
+  ViewN<double, kHistorySlots> history;
   ViewN<double, 2> hourglass_force;
   Scatter f_scatter;
   double dt = 0;       // this step, x^n -> x^{n+1}
@@ -333,15 +336,21 @@ struct QuadElementPassT {
       const double deps[4] = {d_rr * dt, d_zz * dt, d_tt * dt, d_rz * dt};
       double s[4], s_old[4];
       for (int c = 0; c < 4; ++c) s[c] = s_old[c] = stress(e, c);
-      double ep = plastic_strain(e), ev = compaction(e);
-      update_stress(m, s, deps, 0.5 * (l_rz - l_zr) * dt, ep, ev, dt);
-      compaction(e) = ev;
+      MaterialState state;
+      state.plastic_strain = plastic_strain(e);
+      state.compaction = compaction(e);
+      if constexpr (Models::has_history)
+        for (int k = 0; k < kHistorySlots; ++k) state.history[k] = history(e, k);
+      update_stress<Models>(m, s, deps, 0.5 * (l_rz - l_zr) * dt, state, dt);
+      compaction(e) = state.compaction;
       double work = 0;
       for (int c = 0; c < 3; ++c) work += 0.5 * (s_old[c] + s[c]) * deps[c];
       work += (s_old[RZ] + s[RZ]) * deps[RZ];
       internal_energy(e) += gm.volume * work;
       for (int c = 0; c < 4; ++c) stress(e, c) = s[c];
-      plastic_strain(e) = ep;
+      plastic_strain(e) = state.plastic_strain;
+      if constexpr (Models::has_history)
+        for (int k = 0; k < kHistorySlots; ++k) history(e, k) = state.history[k];
       strain_rate(e, RR) = d_rr;
       strain_rate(e, ZZ) = d_zz;
       strain_rate(e, TT) = d_tt;

@@ -58,4 +58,26 @@ struct GeostaticStress {
   }
 };
 
+// The at-rest stress of every element, at its centre height: the mean of its lowest and highest
+// node in the reference configuration (a structured grid's element: the mid-height of its row).
+struct ElementGeostaticStress {
+  ViewN<double, 2> x0;
+  Kokkos::View<int* [4], MemSpace> conn;
+  View1<int> material;
+  Kokkos::View<MaterialParams*, MemSpace> materials;
+  ViewN<double, 4> stress;
+  GeostaticLayers<> layers;
+  double k0;
+  KOKKOS_INLINE_FUNCTION void operator()(const int e) const {
+    double lo = x0(conn(e, 0), 1), hi = lo;
+    for (int k = 1; k < 4; ++k) {
+      lo = math::min(lo, x0(conn(e, k), 1));
+      hi = math::max(hi, x0(conn(e, k), 1));
+    }
+    double s[4];
+    at_rest_stress(materials(material(e)), layers.sigma_v(0.5 * (lo + hi)), k0, s);
+    for (int c = 0; c < 4; ++c) stress(e, c) = s[c];
+  }
+};
+
 }  // namespace tamp

@@ -40,13 +40,16 @@ struct SphParams {
 };
 
 // Loop A: velocity gradient (with the hoop rate), continuity, stress update through the
-// material model, internal energy, artificial stress R. Writes only particle a.
-struct StrainRateAndStress {
+// material model (a model of the list Models, models/ModelList.hpp), internal energy,
+// artificial stress R. Writes only particle a.
+template <class Models = RegisteredModels>
+struct StrainRateAndStressT {
   ViewN<double, 2> x, v;
   ViewN<double, 2> image_work;  // in/out: += the stress power booked for pairs with mirror images (see below)
   View1<double> hoop_factor;  // out: chi, the hoop term is chi / r (see below)
   View1<double> pair_gradient_factor;  // out: (dW/dr)/r of every listed pair, 0 beyond the support
   View1<double> mass, rho, plastic_strain, compaction, internal_energy;
+  ViewN<double, kHistorySlots> history;
   ViewN<double, 4> sigma;
   ViewN<double, 3> art_stress;
   View1<int> material;
@@ -57,12 +60,13 @@ struct StrainRateAndStress {
   int first_image = kNoImages;  // index of the first mirror image (n_real + n_tie); none by default
 
   // Built by name: the particle fields, the neighbour list, the pair factors it writes.
-  StrainRateAndStress(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_out,
+  StrainRateAndStressT(const Particles& P, const NeighbourList& list, const View1<double>& pair_gradient_factor_out,
                       const Kokkos::View<const MaterialParams*, MemSpace>& materials_in, const SphParams& p_in,
                       double dt_in)
       : pair_gradient_factor(pair_gradient_factor_out), materials(materials_in), p(p_in), dt(dt_in) {
     x = P.x; v = P.v; hoop_factor = P.hoop_factor; mass = P.mass; rho = P.rho;
-    plastic_strain = P.plastic_strain; compaction = P.compaction; internal_energy = P.internal_energy;
+    plastic_strain = P.plastic_strain; compaction = P.compaction; history = P.history;
+    internal_energy = P.internal_energy;
     sigma = P.sigma; art_stress = P.art_stress; material = P.material; image_work = P.image_work;
     offsets = list.offsets; neighbours = list.neighbours;
   }
@@ -142,8 +146,13 @@ struct StrainRateAndStress {
     const MaterialParams& m = materials(material(a));
     double s[4] = {sigma(a, 0), sigma(a, 1), sigma(a, 2), sigma(a, 3)};
     const double s_old[4] = {s[0], s[1], s[2], s[3]};
-    double eps_p = plastic_strain(a), eps_v = compaction(a);
-    update_stress(m, s, deps, w_rz_dt, eps_p, eps_v, dt);
+    MaterialState state;
+    state.plastic_strain = plastic_strain(a);
+    state.compaction = compaction(a);
+    if constexpr (Models::has_history)
+      for (int k = 0; k < kHistorySlots; ++k) state.history[k] = history(a, k);
+    update_stress<Models>(m, s, deps, w_rz_dt, state, dt);
+    double& eps_v = state.compaction;
 
     // Continuity, bounded to [0.7, 1.5] rho_0: at a free surface (crater rims, splashed
     // particles) the truncated kernel gives a spurious div v, and the hypoelastic stress
@@ -189,7 +198,9 @@ struct StrainRateAndStress {
     }
 
     for (int c = 0; c < 4; ++c) sigma(a, c) = s[c];
-    plastic_strain(a) = eps_p;
+    plastic_strain(a) = state.plastic_strain;
+    if constexpr (Models::has_history)
+      for (int k = 0; k < kHistorySlots; ++k) history(a, k) = state.history[k];
     rho(a) = rho_new;
 
     // Artificial stress (Gray, Monaghan & Swift 2001): R' = -eps sigma' / rho^2 for each
@@ -212,6 +223,7 @@ struct StrainRateAndStress {
     }
   }
 };
+using StrainRateAndStress = StrainRateAndStressT<>;
 
 // Loop B: acceleration from the stress divergence (symmetric SPH form), artificial
 // stress, Monaghan viscosity, hoop terms, gravity, damping and external accelerations;

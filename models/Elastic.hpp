@@ -39,8 +39,9 @@ KOKKOS_INLINE_FUNCTION void jaumann_rotate(double sigma[4], double w_rz_dt) {
 // The model: no plastic correction after the elastic predictor.
 struct Elastic {
   static constexpr int id = MODEL_ELASTIC;
+  static constexpr int history_count = 0;
   KOKKOS_INLINE_FUNCTION static int plastic_correction(const MaterialParams&, double[4], const double[4],
-                                                       double&, double&, double) {
+                                                       MaterialState&, double) {
     return 0;
   }
   static std::vector<ModelDescription> describe() {

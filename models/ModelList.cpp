@@ -6,19 +6,10 @@
 #include <stdexcept>
 
 namespace tamp {
-
 const std::vector<ModelDescription>& material_models() {
   static const std::vector<ModelDescription> all = [] {
-    std::vector<ModelDescription> v;
-    std::set<int> ids;
+    const std::vector<ModelDescription> v = describe_models(RegisteredModels{});
     std::set<std::string> names;
-#define TAMP_DESCRIBE(Model)                                                                \
-  if (!ids.insert(Model::id).second)                                                        \
-    throw std::logic_error(std::string("models/ModelList.hpp: two models have id ") +       \
-                           std::to_string(Model::id) + " (" #Model ")");                     \
-  for (auto& d : Model::describe()) v.push_back(d);
-    TAMP_MATERIAL_MODELS(TAMP_DESCRIBE)
-#undef TAMP_DESCRIBE
     for (const auto& d : v)
       if (!names.insert(d.name).second) throw std::logic_error("models/ModelList.hpp: model name '" + d.name + "' twice");
     return v;

@@ -23,6 +23,7 @@ namespace tamp {
 
 struct ModifiedCamClay {
   static constexpr int id = 2;
+  static constexpr int history_count = 0;  // the standard compaction is its hardening variable
   // Slots of MaterialParams::model_param.
   enum Slot : int { LAMBDA = 0, KAPPA = 1, M_CS = 2, PC0 = 3, V0 = 4 };
 
@@ -142,7 +143,9 @@ struct ModifiedCamClay {
   }
 
   KOKKOS_INLINE_FUNCTION static int plastic_correction(const MaterialParams& m, double sigma[4], const double[4],
-                                                       double& plastic_strain, double& compaction, double) {
+                                                       MaterialState& state, double) {
+    double& plastic_strain = state.plastic_strain;
+    double& compaction = state.compaction;
     const double M = m.model_param[M_CS];
     const double theta = m.model_param[V0] / (m.model_param[LAMBDA] - m.model_param[KAPPA]);
     const double pc_n = m.model_param[PC0] * math::exp(theta * compaction);

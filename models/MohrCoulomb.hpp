@@ -262,10 +262,11 @@ KOKKOS_INLINE_FUNCTION int mohr_coulomb_return(const MaterialParams& m, double s
 // "mohr-coulomb" (c, phi, psi) and "tresca" (Su; phi = psi = 0).
 struct MohrCoulomb {
   static constexpr int id = MODEL_MOHR_COULOMB;
+  static constexpr int history_count = 0;  // the standard plastic_strain and compaction only
   KOKKOS_INLINE_FUNCTION static int plastic_correction(const MaterialParams& m, double sigma[4],
-                                                       const double deps[4], double& plastic_strain,
-                                                       double& compaction, double dt) {
-    compaction_return(m, sigma, compaction);
+                                                       const double deps[4], MaterialState& state, double dt) {
+    double& plastic_strain = state.plastic_strain;
+    compaction_return(m, sigma, state.compaction);
     double dep = 0.0;
     int region;
     if (m.rate_coefficient > 0 || m.remoulded_ratio < 1.0) {

@@ -226,7 +226,7 @@ Outcome undeclared(const std::string& name, const std::function<void(Config&)>& 
   }
   DiagnoseOptions opt;
   opt.fit.verbose = false;
-  opt.jobs = std::max(1, static_cast<int>(Kokkos::DefaultHostExecutionSpace::concurrency()));
+  opt.jobs = std::max(1, static_cast<int>(Kokkos::DefaultHostExecutionSpace().concurrency()));
   opt.tamp_binary = TAMP_BINARY;
   // TAMP_LOOP_METHOD=bobyqa (or sbplx, lm) runs the diagnosis with another fit method, for
   // comparing methods on these tests (docs/closing-the-loop.md); the default is Nelder-Mead.

@@ -86,9 +86,12 @@ TEST_CASE("ModifiedCamClay: random trial states return onto the yield surface", 
   for (int i = 0; i < n; ++i) {
     double s[4] = {sig[4 * i], sig[4 * i + 1], sig[4 * i + 2], sig[4 * i + 3]};
     const PQ tr = invariants(s);
-    double ep = eps_p[i], ev = eps_v[i];
+    MaterialState st;
+    st.plastic_strain = eps_p[i];
+    st.compaction = eps_v[i];
     const double deps[4] = {0, 0, 0, 0};
-    const int region = MCC::plastic_correction(mats[i], s, deps, ep, ev, 0.0);
+    const int region = MCC::plastic_correction(mats[i], s, deps, st, 0.0);
+    const double ep = st.plastic_strain, ev = st.compaction;
     for (int k = 0; k < 4; ++k) host[4 * i + k] = s[k];
     host_ev[i] = ev;
     host_ep[i] = ep;
@@ -134,7 +137,12 @@ TEST_CASE("ModifiedCamClay: random trial states return onto the yield surface", 
       "test::cam_clay", Kokkos::RangePolicy<ExecSpace>(0, n), KOKKOS_LAMBDA(int i) {
         double s[4] = {ds(4 * i), ds(4 * i + 1), ds(4 * i + 2), ds(4 * i + 3)};
         const double deps[4] = {0, 0, 0, 0};
-        ModifiedCamClay::plastic_correction(dm(i), s, deps, dep(i), dev(i), 0.0);
+        MaterialState st;
+        st.plastic_strain = dep(i);
+        st.compaction = dev(i);
+        ModifiedCamClay::plastic_correction(dm(i), s, deps, st, 0.0);
+        dep(i) = st.plastic_strain;
+        dev(i) = st.compaction;
         for (int k = 0; k < 4; ++k) ds(4 * i + k) = s[k];
       });
   Kokkos::deep_copy(hs, ds);

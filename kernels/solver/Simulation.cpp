@@ -698,11 +698,7 @@ void Simulation::set_geostatic_stress(double k0) {
   Kokkos::parallel_for("tamp::geostatic_stress", real_particles(), GeostaticStress(P, materials_, layers, k0));
   if (own_fem_) {  // the deck's elements: the same layered state at their centres
     fem::FemModel& f = *own_fem_;
-    const GeostaticLayers<decltype(layer_h)> host_layers{layer_h, layers.n};
-    std::vector<double> st(4 * static_cast<size_t>(f.mesh().n_elements));
-    for (int e = 0; e < f.mesh().n_elements; ++e)
-      at_rest_stress(f.materials()[f.element_material(e)], host_layers.sigma_v(f.element_z0(e)), k0, &st[4 * e]);
-    f.set_element_stress(st);
+    f.set_geostatic_stress(layers, k0);
     f.hold_boundary_forces();
     sync_tie_stress();
   }
@@ -815,6 +811,7 @@ Checkpoint Simulation::save_state() {
     put_rows(m.strain_rate, m.n_elements, c.reals["fem_strain_rate"]);
     put_rows(m.plastic_strain, m.n_elements, c.reals["fem_plastic_strain"]);
     put_rows(m.compaction, m.n_elements, c.reals["fem_compaction"]);
+    put_rows(m.history, m.n_elements, c.reals["fem_history"]);
     put_rows(m.hourglass_force, m.n_elements, c.reals["fem_hourglass_force"]);
     put_rows(m.internal_energy, m.n_elements, c.reals["fem_internal_energy"]);
     put_rows(m.hourglass_energy, m.n_elements, c.reals["fem_hourglass_energy"]);
@@ -922,6 +919,8 @@ void Simulation::load_state(const Checkpoint& c) {
     get_rows(real("fem_strain_rate"), "fem_strain_rate", m.strain_rate, m.n_elements);
     get_rows(real("fem_plastic_strain"), "fem_plastic_strain", m.plastic_strain, m.n_elements);
     get_rows(real("fem_compaction"), "fem_compaction", m.compaction, m.n_elements);
+    if (c.reals.count("fem_history")) get_rows(real("fem_history"), "fem_history", m.history, m.n_elements);
+    else Kokkos::deep_copy(m.history, 0.0);  // a checkpoint from before the models' history slots
     get_rows(real("fem_hourglass_force"), "fem_hourglass_force", m.hourglass_force, m.n_elements);
     get_rows(real("fem_internal_energy"), "fem_internal_energy", m.internal_energy, m.n_elements);
     get_rows(real("fem_hourglass_energy"), "fem_hourglass_energy", m.hourglass_energy, m.n_elements);

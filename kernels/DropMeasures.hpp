@@ -4,6 +4,7 @@
 // aggregate, the uplift beside it, the heave volume, the crater floor, the soil's top under
 // the pounder. What each means and why: docs/drop-sequence.md "Measurements".
 #pragma once
+#include <cmath>
 #include <vector>
 
 #include "kernels/Measurements.hpp"
@@ -60,5 +61,20 @@ double uplift(const ParticleSurvey& survey, const DropGeometry& g);
 // Heave volume: the soil surface above the ground level, integrated over the rings outside
 // the pounder's widest radius, m3.
 double heave_volume(const ParticleSurvey& survey, const DropGeometry& g);
+
+// The pounder at rest in contact (docs/drop-sequence.md): touching the soil, its speed below
+// rest_speed (m/s) and the upward contact force `lift` within rest_force_tolerance x weight
+// of its weight (N). The sequencer asks it every step and ends the blow once it has held for
+// the schedule's rest_hold.
+inline bool pounder_at_rest(bool touching, double v_z, double lift, double weight, double rest_speed,
+                            double rest_force_tolerance) {
+  return touching && std::fabs(v_z) < rest_speed && std::fabs(lift - weight) < rest_force_tolerance * weight;
+}
+
+// Ballistic flight: the time for a body at height z (m) moving up at v (m/s) to fall to z_land
+// under gravity g (m/s2), the later root of z + v t - g t^2 / 2 = z_land (z > z_land).
+inline double landing_time(double z, double v, double g, double z_land) {
+  return (v + std::sqrt(v * v + 2.0 * g * (z - z_land))) / g;
+}
 
 }  // namespace tamp

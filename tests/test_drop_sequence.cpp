@@ -560,3 +560,59 @@ TEST_CASE("Measurements: uplift, heave volume and crater floor of a surface laid
   CHECK(tamp::uplift(survey, g) == Approx(0.0).margin(1e-12));
   CHECK(tamp::heave_volume(survey, g) == Approx(0.0).margin(1e-15));
 }
+
+TEST_CASE("Blow account: rest in contact, the ballistic landing and the energy account, each alone",
+          "[drop-sequence][blow]") {
+  using namespace tamp;
+  SECTION("at rest in contact: touching, slow, and carried by the soil within the tolerance") {
+    const double W = 103.5;  // N, the lab pounder's weight
+    CHECK(pounder_at_rest(true, 0.004, 1.05 * W, W, 0.005, 0.10));
+    CHECK_FALSE(pounder_at_rest(false, 0.0, W, W, 0.005, 0.10));        // not touching
+    CHECK_FALSE(pounder_at_rest(true, -0.006, W, W, 0.005, 0.10));      // sinking too fast
+    CHECK_FALSE(pounder_at_rest(true, 0.0, 0.85 * W, W, 0.005, 0.10));  // held up by less than its weight
+    CHECK_FALSE(pounder_at_rest(true, 0.0, 1.15 * W, W, 0.005, 0.10));  // still being pushed up
+  }
+  SECTION("landing time: the later root of the free fall, to round-off") {
+    const double g = 9.81;
+    CHECK(landing_time(1.0, 0.0, g, 0.0) == Approx(std::sqrt(2.0 / g)).epsilon(1e-14));
+    for (const double v : {-1.5, 0.0, 0.8, 3.0}) {  // falling, at its apex, rising
+      const double z = 0.3, z_land = 0.1, t = landing_time(z, v, g, z_land);
+      CHECK(t > 0.0);
+      CHECK(std::abs(z + v * t - 0.5 * g * t * t - z_land) < 1e-14);
+      CHECK(v - g * t < 0.0);  // it arrives falling
+    }
+  }
+  SECTION("energy account: the pounder's loss, split into the sinks, leaves no residual") {
+    // Two materials; the pounder lost 10 J, which went to: soil motion 1, internal 6 (elastic
+    // 2, numerical heat 0.5, so plastic 3.5), contact 1, radiated 1.2, damping 0.5, wall friction 0.3.
+    BlowEnergies before, after;
+    before.known = after.known = true;
+    before.pounder = 12.0;
+    after.pounder = 2.0;
+    before.materials = {{0.0, 1.0, 0.0, 0.5, 0.1}, {0.0, 2.0, 0.0, 0.5, 0.0}};
+    after.materials = {{0.4, 4.0, 0.2, 2.0, 0.6}, {0.4, 5.0, 0.0, 1.0, 0.0}};
+    after.contact = 1.0;
+    after.boundary = -1.2;
+    after.damping = -0.5;
+    after.wall_friction = -0.3;
+    BlowRecord rec;
+    account_blow_energy(before, after, rec);
+    CHECK(rec.energy_in_J == Approx(10.0));
+    CHECK(rec.soil_motion_J == Approx(1.0));
+    CHECK(rec.elastic_J == Approx(2.0));
+    CHECK(rec.viscous_heat_J == Approx(0.5));
+    REQUIRE(rec.plastic_J.size() == 2);
+    CHECK(rec.plastic_J[0] == Approx(3.0 - 1.5 - 0.5));
+    CHECK(rec.plastic_J[1] == Approx(3.0 - 0.5));
+    CHECK(rec.radiated_J == Approx(1.2));
+    CHECK(rec.damping_J == Approx(0.5));
+    CHECK(rec.wall_friction_J == Approx(0.3));
+    CHECK(std::abs(rec.residual_J) < 1e-12);
+    // A term the checkpoint before lacked (NaN) counts from the restart: no difference, so the
+    // 1 J of contact energy is missing from the sinks and shows in the residual.
+    before.contact = std::nan("");
+    account_blow_energy(before, after, rec);
+    CHECK(rec.contact_J == 0.0);
+    CHECK(rec.residual_J == Approx(1.0));
+  }
+}

@@ -37,27 +37,6 @@ const char* kind_name(StageKind k) {
 
 bool is_drop_sequence_checkpoint(const Checkpoint& c) { return c.scalars.count("seq_next_stage") > 0; }
 
-const std::vector<BlowColumn>& blow_columns() {
-  using B = BlowRecord;
-  static const std::vector<BlowColumn> columns{
-      {"drop_height_m", &B::drop_height_m},       {"crater_depth_m", &B::crater_depth_m},
-      {"deepest_m", &B::deepest_m},               {"penetration_m", &B::penetration_m},
-      {"contacts", &B::contacts},                 {"restitution", &B::restitution},
-      {"peak_deceleration_m_s2", &B::peak_deceleration_m_s2},
-      {"rest_in_contact", &B::rest_in_contact},   {"crater_floor_m", &B::crater_floor_m},
-      {"uplift_m", &B::uplift_m},                 {"aggregate_added_kg", &B::aggregate_added_kg},
-      {"energy_in_J", &B::energy_in_J},           {"elastic_J", &B::elastic_J},
-      {"soil_motion_J", &B::soil_motion_J},       {"viscous_heat_J", &B::viscous_heat_J},
-      {"radiated_J", &B::radiated_J},             {"damping_J", &B::damping_J},
-      {"wall_friction_J", &B::wall_friction_J},   {"contact_J", &B::contact_J},
-      {"artificial_stress_J", &B::artificial_stress_J},
-      {"returned_J", &B::returned_J},             {"residual_J", &B::residual_J},
-      {"contact_time_s", &B::contact_time_s},     {"flight_time_s", &B::flight_time_s},
-      {"rest_time_s", &B::rest_time_s},           {"ballistic_time_s", &B::ballistic_time_s},
-      {"axis_images_J", &B::axis_images_J},       {"wall_images_J", &B::wall_images_J}};
-  return columns;
-}
-
 DropSequence::DropSequence(Simulation& sim, const Config& cfg, std::string out)
     : sim_(sim), cfg_(cfg), out_(std::move(out)), series_(out_ + "/stages.xdmf") {
   const ScheduleSpec& sch = cfg_.schedule;
@@ -164,28 +143,6 @@ void DropSequence::begin_impact(const Stage& s) {
   rec.drop_height_m = cfg_.schedule.drop_heights[s.blow - 1];
 }
 
-std::vector<double> BlowEnergies::flat() const {
-  if (!known) return {};
-  std::vector<double> e{pounder, contact, damping, boundary, wall_friction, artificial_stress};
-  for (const Material& m : materials)
-    for (double v : {m.kinetic, m.internal, m.potential, m.elastic, m.numerical_heat}) e.push_back(v);
-  for (double v : {node_motion, node_boundary, node_damping, axis_images, wall_images}) e.push_back(v);
-  return e;
-}
-
-BlowEnergies BlowEnergies::from_flat(const std::vector<double>& v, size_t n_materials) {
-  size_t k = 0;
-  auto next = [&] { return k < v.size() ? v[k++] : std::numeric_limits<double>::quiet_NaN(); };
-  BlowEnergies e;
-  e.known = !v.empty();
-  for (double* x : {&e.pounder, &e.contact, &e.damping, &e.boundary, &e.wall_friction, &e.artificial_stress}) *x = next();
-  e.materials.resize(n_materials);
-  for (Material& m : e.materials)
-    for (double* x : {&m.kinetic, &m.internal, &m.potential, &m.elastic, &m.numerical_heat}) *x = next();
-  for (double* x : {&e.node_motion, &e.node_boundary, &e.node_damping, &e.axis_images, &e.wall_images}) *x = next();
-  return e;
-}
-
 BlowEnergies DropSequence::energy_state() const {
   const EnergyLedger& L = sim_.ledger();
   BlowEnergies e;
@@ -259,8 +216,7 @@ bool DropSequence::impact_step() {
   if (z_start_ < 1e299 && first_rebound_open_ > 0) up_max_ = std::max(up_max_, b.v_z);
   if (sch.flight == "ballistic") ballistic_flight(min_flight, touching);
 
-  const bool at_rest = touching && std::fabs(b.v_z) < sch.rest_speed &&
-                       std::fabs(lift - weight) < sch.rest_force_tolerance * weight;
+  const bool at_rest = pounder_at_rest(touching, b.v_z, lift, weight, sch.rest_speed, sch.rest_force_tolerance);
   if (at_rest) {
     if (rest_since_ < 0) rest_since_ = sim_.time();
     if (sim_.time() - rest_since_ >= sch.rest_hold) {
@@ -330,7 +286,7 @@ void DropSequence::ballistic_flight(double min_flight, bool touching) {
   if (!(z > z_land)) return;  // already down at the soil: follow the landing
   // z + v tau - g tau^2 / 2 = z_land, the later root; the jump stops where the stage must
   // end (twice max_impact_time, see impact_step)
-  double tau = (v + std::sqrt(v * v + 2.0 * g * (z - z_land))) / g;
+  double tau = landing_time(z, v, g, z_land);
   tau = std::min(tau, std::max(0.0, 2.0 * sch.max_impact_time - (sim_.time() - stage_t0_)));
   // pounder.csv keeps its rows through the jump (the free fall, no contact force)
   const double t0 = sim_.time(), blow = stages_[next_stage_].blow;
@@ -358,36 +314,7 @@ void DropSequence::end_impact(BlowRecord& rec) {
   rec.flight_time_s = flight_time_;
   rec.ballistic_time_s = ballistic_time_;
   rec.rest_time_s = phase_ == 1 ? sim_.time() - rest_since_ : 0.0;
-  const BlowEnergies e1 = energy_state();
-  const BlowEnergies& e0 = energy0_;
-  // (a term a checkpoint from before it lacks is NaN in e0: it counts from the restart)
-  auto d = [](double now, double then) { return std::isnan(then) ? 0.0 : now - then; };
-  rec.energy_in_J = -d(e1.pounder, e0.pounder);
-  rec.contact_J = d(e1.contact, e0.contact);
-  rec.damping_J = -d(e1.damping, e0.damping);
-  rec.radiated_J = -d(e1.boundary, e0.boundary);
-  rec.wall_friction_J = -d(e1.wall_friction, e0.wall_friction);
-  rec.artificial_stress_J = d(e1.artificial_stress, e0.artificial_stress);
-  rec.elastic_J = rec.soil_motion_J = rec.viscous_heat_J = 0;
-  const size_t nm = cfg_.materials.size();
-  rec.plastic_J.assign(nm, 0.0);
-  double internal = 0;
-  for (size_t m = 0; m < nm; ++m) {
-    const BlowEnergies::Material& now = e1.materials[m];
-    const BlowEnergies::Material then = m < e0.materials.size() ? e0.materials[m] : BlowEnergies::Material{NAN, NAN, NAN, NAN, NAN};
-    rec.soil_motion_J += d(now.kinetic, then.kinetic) + d(now.potential, then.potential);
-    rec.elastic_J += d(now.elastic, then.elastic);
-    rec.viscous_heat_J += d(now.numerical_heat, then.numerical_heat);
-    rec.plastic_J[m] = d(now.internal, then.internal) - d(now.elastic, then.elastic) - d(now.numerical_heat, then.numerical_heat);
-    internal += d(now.internal, then.internal);
-  }
-  rec.soil_motion_J += d(e1.node_motion, e0.node_motion);  // the tied elements' nodes
-  rec.radiated_J -= d(e1.node_boundary, e0.node_boundary);
-  rec.damping_J -= d(e1.node_damping, e0.node_damping);
-  rec.axis_images_J = d(e1.axis_images, e0.axis_images);
-  rec.wall_images_J = d(e1.wall_images, e0.wall_images);
-  rec.residual_J = rec.energy_in_J + rec.artificial_stress_J + rec.axis_images_J + rec.wall_images_J -
-                   (rec.soil_motion_J + internal + rec.contact_J + rec.radiated_J + rec.damping_J + rec.wall_friction_J);
+  account_blow_energy(energy0_, energy_state(), rec);
 }
 
 void DropSequence::backfill(const Stage& s) {
@@ -446,34 +373,6 @@ void DropSequence::backfill(const Stage& s) {
   sim_.set_damping(cfg_.schedule.damping);
 }
 
-void DropSequence::record(bool force) {
-  if (!force && sim_.time() < next_record_) return;
-  next_record_ = sim_.time() + cfg_.schedule.tracer_interval;
-  const Stage& st = stages_[std::min<int>(next_stage_, static_cast<int>(stages_.size()) - 1)];
-  if (!tracer_index_.empty()) {
-    std::vector<double> row{sim_.time(), double(st.blow), double(next_stage_)};
-    // Copy only the tracers' coordinates, one value at a time: a row of x is not contiguous
-    // on the GPU (LayoutLeft), and Kokkos has no device-to-host copy of a strided view.
-    const auto& x = sim_.particles().x;
-    for (size_t k = 0; k < tracer_index_.size(); ++k) {
-      double r = 0, z = 0;
-      Kokkos::deep_copy(r, Kokkos::subview(x, tracer_index_[k], 0));
-      Kokkos::deep_copy(z, Kokkos::subview(x, tracer_index_[k], 1));
-      row.push_back(z - tracer_z0_[k]);
-      row.push_back(r - tracer_r0_[k]);
-    }
-    tracer_rows_.push_back(row);
-  }
-  const RigidBody& b = sim_.body();
-  if (b.active)
-    pounder_rows_.push_back({sim_.time(), double(st.blow), b.z0, b.v_z, b.a_z, -b.contact.force_z});
-  const Energies e = sim_.energies();
-  const EnergyLedger& L = sim_.ledger();
-  energy_rows_.push_back({sim_.time(), e.kinetic, e.internal, e.potential, sim_.body_energy(), sim_.contact_energy(),
-                          e.total() + sim_.body_energy() + sim_.contact_energy(), -L.damping_J, -L.boundary_J,
-                          -L.wall_friction_J, sim_.accounted_energy()});
-}
-
 void DropSequence::progress(int k, bool force) {
   if (log::level() == log::Level::Quiet) return;
   const double now = wall_now();
@@ -492,147 +391,6 @@ void DropSequence::progress(int k, bool force) {
                 k + 1, stages_.size(), kind_name(s.kind), s.blow, cfg_.schedule.drop_heights.size(), sim_.time(),
                 sim_.steps(), sim_.steps() / std::max(1e-9, elapsed), left);
   std::fprintf(stderr, "%s\n", buf);
-}
-
-Checkpoint DropSequence::checkpoint() {
-  Checkpoint c = sim_.save_state();
-  c.scalars["seq_next_stage"] = next_stage_;
-  c.scalars["seq_in_stage"] = in_stage_ ? 1 : 0;
-  c.scalars["seq_stage_t0"] = stage_t0_;
-  c.scalars["seq_rest_since"] = rest_since_;
-  c.scalars["seq_z_start"] = z_start_;
-  c.scalars["seq_peak_dec"] = peak_dec_;
-  c.scalars["seq_phase"] = phase_;
-  c.scalars["seq_next_record"] = next_record_;
-  c.scalars["seq_wall_done"] = wall_done_ + stage_wall_;
-  c.scalars["seq_v_in"] = v_in_;
-  c.scalars["seq_up_max"] = up_max_;
-  c.scalars["seq_out_since"] = out_since_;
-  c.scalars["seq_pending_return"] = pending_return_;
-  c.scalars["seq_deepest_z"] = deepest_z_;
-  c.scalars["seq_contacts"] = contacts_;
-  c.scalars["seq_first_rebound_open"] = first_rebound_open_;
-  c.scalars["seq_returned"] = returned_;
-  c.scalars["seq_in_contact"] = in_contact_;
-  c.scalars["seq_contact_time"] = contact_time_;
-  c.scalars["seq_flight_time"] = flight_time_;
-  c.scalars["seq_relax_since"] = relax_since_;
-  c.scalars["seq_relaxed_flight"] = relaxed_flight_;
-  c.scalars["seq_ballistic_time"] = ballistic_time_;
-  c.reals["seq_energy0"].values = energy0_.flat();
-  for (int k = 0; k < static_cast<int>(Phase::Count); ++k)  // steps, simulated s, wall s
-    c.reals["seq_phase_time"].values.insert(c.reals["seq_phase_time"].values.end(),
-                                            {double(phase_time_[k].steps), phase_time_[k].simulated_s,
-                                             phase_time_[k].wall_s});
-  c.reals["seq_phase_time"].width = 3;
-  auto& br = c.reals["seq_blows"];
-  const auto& cols = blow_columns();
-  br.width = static_cast<int>(2 + cols.size() + cfg_.materials.size());
-  for (const auto& b : blows_) {
-    br.values.push_back(b.blow);
-    for (const auto& col : cols) br.values.push_back(b.*col.field);
-    for (size_t m = 0; m < cfg_.materials.size(); ++m) br.values.push_back(m < b.plastic_J.size() ? b.plastic_J[m] : 0.0);
-    br.values.push_back(b.wall_s);
-  }
-  auto rows = [&](const char* name, const std::vector<std::vector<double>>& t, int width) {
-    auto& a = c.reals[name];
-    a.width = width;
-    for (const auto& r : t) a.values.insert(a.values.end(), r.begin(), r.end());
-  };
-  rows("seq_tracers", tracer_rows_, 3 + 2 * static_cast<int>(tracer_index_.size()));
-  rows("seq_pounder", pounder_rows_, 6);
-  rows("seq_energy", energy_rows_, 11);
-  auto& ti = c.ints["seq_tracer_index"];
-  ti.values = tracer_index_;
-  auto& t0 = c.reals["seq_tracer_origin"];
-  t0.width = 2;
-  for (size_t k = 0; k < tracer_index_.size(); ++k) {
-    t0.values.push_back(tracer_r0_[k]);
-    t0.values.push_back(tracer_z0_[k]);
-  }
-  return c;
-}
-
-void DropSequence::restore(const Checkpoint& c) {
-  if (!is_drop_sequence_checkpoint(c))
-    throw std::invalid_argument("the checkpoint is not from a drop sequence (no stage information)");
-  sim_.load_state(c);
-  auto s = [&](const char* k) { return c.scalars.at(k); };
-  next_stage_ = static_cast<int>(s("seq_next_stage"));
-  if (next_stage_ > static_cast<int>(stages_.size()))
-    throw std::invalid_argument("the checkpoint is at stage " + std::to_string(next_stage_) + "; this deck has " +
-                                std::to_string(stages_.size()) + " stages");
-  in_stage_ = s("seq_in_stage") != 0;
-  stage_t0_ = s("seq_stage_t0");
-  rest_since_ = s("seq_rest_since");
-  z_start_ = s("seq_z_start");
-  peak_dec_ = s("seq_peak_dec");
-  phase_ = static_cast<int>(s("seq_phase"));
-  next_record_ = s("seq_next_record");
-  wall_done_ = s("seq_wall_done");
-  auto opt = [&](const char* k) { return c.scalars.count(k) ? c.scalars.at(k) : 0.0; };
-  v_in_ = opt("seq_v_in");
-  up_max_ = opt("seq_up_max");
-  out_since_ = c.scalars.count("seq_out_since") ? c.scalars.at("seq_out_since") : -1.0;
-  pending_return_ = opt("seq_pending_return");
-  deepest_z_ = c.scalars.count("seq_deepest_z") ? c.scalars.at("seq_deepest_z") : 1e300;
-  contacts_ = opt("seq_contacts");
-  first_rebound_open_ = opt("seq_first_rebound_open");
-  returned_ = opt("seq_returned");
-  in_contact_ = opt("seq_in_contact");
-  contact_time_ = opt("seq_contact_time");
-  flight_time_ = opt("seq_flight_time");
-  relax_since_ = c.scalars.count("seq_relax_since") ? c.scalars.at("seq_relax_since") : -1.0;
-  relaxed_flight_ = c.scalars.count("seq_relaxed_flight") ? c.scalars.at("seq_relaxed_flight") : -1.0;
-  ballistic_time_ = opt("seq_ballistic_time");
-  energy0_ = BlowEnergies::from_flat(c.reals.count("seq_energy0") ? c.reals.at("seq_energy0").values : std::vector<double>{},
-                                     cfg_.materials.size());
-  if (c.reals.count("seq_phase_time")) {  // older checkpoints have none: timing starts at 0
-    const auto& v = c.reals.at("seq_phase_time").values;
-    for (int k = 0; k < static_cast<int>(Phase::Count) && 3 * k + 2 < static_cast<int>(v.size()); ++k)
-      phase_time_[k] = {static_cast<long>(v[3 * k]), v[3 * k + 1], v[3 * k + 2]};
-  }
-  blows_.clear();
-  const auto& br = c.reals.at("seq_blows");
-  const auto& cols = blow_columns();
-  const size_t nm = cfg_.materials.size();
-  // A checkpoint written before the last columns were added reads them as 0 (ballistic_time_s,
-  // 2026-12-02: no flight was jumped then; axis_images_J and wall_images_J, 2026-12-04: not
-  // measured then). Any other width is another deck or an older Tamp.
-  size_t first_added = 0;  // the columns before ballistic_time_s, the first one added later
-  while (first_added < cols.size() && std::string(cols[first_added].name) != "ballistic_time_s") ++first_added;
-  const long nc_read = static_cast<long>(br.width) - 2 - static_cast<long>(nm);
-  if (nc_read < static_cast<long>(first_added) || nc_read > static_cast<long>(cols.size()))
-    throw std::invalid_argument("the checkpoint's blow table has " + std::to_string(br.width) + " columns; this version writes " +
-                                std::to_string(2 + cols.size() + nm) + " (a checkpoint of an older Tamp or of another deck)");
-  const size_t nc = static_cast<size_t>(nc_read);
-  const size_t width = 2 + nc + nm;
-  for (size_t i = 0; i + width <= br.values.size(); i += width) {
-    const double* v = &br.values[i];
-    BlowRecord b;
-    b.blow = static_cast<int>(v[0]);
-    for (size_t k = 0; k < nc; ++k) b.*cols[k].field = v[1 + k];
-    b.plastic_J.assign(v + 1 + nc, v + 1 + nc + nm);
-    b.wall_s = v[width - 1];
-    blows_.push_back(b);
-  }
-  auto rows = [&](const char* name, std::vector<std::vector<double>>& t) {
-    t.clear();
-    const auto& a = c.reals.at(name);
-    for (size_t i = 0; a.width > 0 && i + a.width <= a.values.size(); i += a.width)
-      t.emplace_back(a.values.begin() + i, a.values.begin() + i + a.width);
-  };
-  tracer_index_ = c.ints.at("seq_tracer_index").values;
-  const auto& t0 = c.reals.at("seq_tracer_origin").values;
-  tracer_r0_.clear();
-  tracer_z0_.clear();
-  for (size_t k = 0; k + 1 < t0.size(); k += 2) {
-    tracer_r0_.push_back(t0[k]);
-    tracer_z0_.push_back(t0[k + 1]);
-  }
-  rows("seq_tracers", tracer_rows_);
-  rows("seq_pounder", pounder_rows_);
-  rows("seq_energy", energy_rows_);
 }
 
 void DropSequence::end_stage(int k) {
@@ -774,83 +532,6 @@ ColumnSummary DropSequence::column() const { return column(survey()); }
 ColumnSummary DropSequence::column(const ParticleSurvey& survey) const {
   if (backfill_material_ < 0) return {};
   return measure_column(survey, backfill_material_, ground_, cfg_.sph.spacing);
-}
-
-void DropSequence::write_tables(double wall_s) const {
-  std::vector<std::string> header{"blow"};
-  for (const auto& col : blow_columns()) header.push_back(col.name);
-  for (const auto& m : cfg_.materials) header.push_back("plastic_" + m.name + "_J");
-  header.push_back("wall_s");
-  std::vector<std::vector<double>> rows;
-  for (const auto& b : blows_) {
-    std::vector<double> r{double(b.blow)};
-    for (const auto& col : blow_columns()) r.push_back(b.*col.field);
-    for (size_t m = 0; m < cfg_.materials.size(); ++m) r.push_back(m < b.plastic_J.size() ? b.plastic_J[m] : 0.0);
-    r.push_back(b.wall_s);
-    rows.push_back(r);
-  }
-  write_csv(out_ + "/blows.csv", header, rows);
-  std::vector<std::string> th{"time_s", "blow", "stage"};
-  for (const auto& t : cfg_.tracers) {
-    th.push_back(t.name + "_dz_m");
-    th.push_back(t.name + "_dr_m");
-  }
-  write_csv(out_ + "/tracers.csv", th, tracer_rows_);
-  write_csv(out_ + "/pounder.csv", {"time_s", "blow", "base_z_m", "v_z_m_s", "a_z_m_s2", "force_z_N"}, pounder_rows_);
-  {
-    static const char* names[] = {"relax", "impact_contact", "impact_flight", "impact_rest", "extract", "settle"};
-    PhaseTime all;
-    for (int k = 0; k < static_cast<int>(Phase::Count); ++k) {
-      const PhaseTime& p = phase_time_[k];
-      all.steps += p.steps;
-      all.simulated_s += p.simulated_s;
-      all.wall_s += p.wall_s;
-    }
-    std::ofstream f(out_ + "/timing.csv");
-    f << "phase,steps,simulated_s,wall_s,share_of_wall\n";
-    char line[160];
-    for (int k = 0; k < static_cast<int>(Phase::Count); ++k) {
-      const PhaseTime& p = phase_time_[k];
-      std::snprintf(line, sizeof line, "%s,%ld,%.9g,%.6g,%.4f\n", names[k], p.steps, p.simulated_s, p.wall_s,
-                    all.wall_s > 0 ? p.wall_s / all.wall_s : 0.0);
-      f << line;
-    }
-    std::snprintf(line, sizeof line, "all,%ld,%.9g,%.6g,1\n", all.steps, all.simulated_s, all.wall_s);
-    f << line;
-  }
-  write_csv(out_ + "/energy.csv",
-            {"time_s", "kinetic_J", "internal_J", "potential_J", "pounder_J", "contact_J", "total_J", "damped_J",
-             "radiated_J", "wall_friction_J", "accounted_J"},
-            energy_rows_);
-  if (next_stage_ < static_cast<int>(stages_.size())) return;
-  const ColumnSummary c = column();
-  std::vector<std::vector<double>> crow;
-  for (const auto& r : c.rows) crow.push_back({r.depth_m, r.diameter_m, r.solid_diameter_m});
-  write_csv(out_ + "/column.csv", {"depth_m", "diameter_m", "solid_diameter_m"}, crow);
-  std::ofstream(out_ + "/summary.json") << run_summary_json(summary(wall_s));
-}
-
-RunSummary DropSequence::summary(double wall_s) const {
-  const ParticleSurvey now = survey();  // one binning for every measurement
-  const ColumnSummary c = column(now);
-  RunSummary s;
-  for (const auto& b : blows_) s.blows_completed += b.crater_depth_m != 0.0 ? 1 : 0;
-  s.column_length_m = c.length_m;
-  s.head_diameter_m = c.head_diameter_m;
-  s.max_diameter_m = c.max_diameter_m;
-  s.base_diameter_m = c.base_diameter_m;
-  s.head_solid_diameter_m = c.head_solid_diameter_m;
-  s.max_solid_diameter_m = c.max_solid_diameter_m;
-  s.uplift_m = uplift(now);
-  s.aggregate_total_kg = c.aggregate_kg;
-  s.steps = sim_.steps();
-  s.wall_s = wall_s;
-  s.particles = static_cast<long>(sim_.particle_count());
-  s.simulated_time_s = sim_.time();
-  s.spacing_m = cfg_.sph.spacing;
-  s.heave_volume_m3 = heave_volume(now);
-  s.aggregate_volume_below_ground_m3 = now.volume_below(backfill_material_, ground_);
-  return s;
 }
 
 double DropSequence::heave_volume() const { return heave_volume(survey()); }

@@ -5,7 +5,7 @@
 
 Reads what `tamp run` wrote to RESULT_DIR (blows.csv, column.csv, summary.json, tracers.csv,
 pounder.csv, deck.toml, stages/*.h5) and writes there crater-depths.png, tracers.png,
-column.png, pounder.png and report.md, which sets the Tamp column against the laboratory
+column.png, pounder.png, column-forming.gif (one frame per stage) and report.md, which sets the Tamp column against the laboratory
 ranges and the paper's LS-DYNA model (both from the lab file). Missing inputs (unfinished
 run: no column.csv or summary.json; a tracers.csv without tracer columns) are skipped
 with a note in the report.
@@ -165,6 +165,59 @@ if stages:
     images.append(("Final particle state (aggregate in black) with lab ranges", "column.png"))
 else:
     notes.append("No `stages/*.h5` snapshot; column.png is not drawn.")
+
+# 3b. The column forming: one frame per stage file, as an animated GIF --------------------------
+if stages and len(stages) > 1:
+    import h5py
+    from matplotlib.animation import PillowWriter
+    pd = deck.get("pounder", {})
+    mnames = [m["name"] for m in deck["materials"]]
+    agg_name = deck.get("backfill", {}).get("material", "aggregate")
+    frames = []
+    for path in stages:
+        with h5py.File(path, "r") as f:
+            g = f["particles"]
+            frames.append((os.path.basename(path), float(g.attrs["time"]),
+                           *(np.asarray(g[k]) for k in ("r", "z", "material"))))
+    rlim = min(max(np.abs(fr[2]).max() for fr in frames) + deck["sph"]["spacing"], 0.3)
+    zs = np.concatenate([fr[3] for fr in frames])
+    fig, ax = plt.subplots(figsize=(6, 5))
+    writer = PillowWriter(fps=4)
+    with writer.saving(fig, P("column-forming.gif"), dpi=80):
+        ax.set_xlim(-rlim, rlim); ax.set_ylim(zs.min() - 0.02, ground + 0.15); ax.set_aspect("equal")
+        fig.canvas.draw()
+        # a particle drawn a spacing wide: points per metre of the axes, squared for scatter's area
+        ppm = ax.get_window_extent().width * 72.0 / fig.dpi / (2 * rlim)
+        size = (0.8 * deck["sph"]["spacing"] * ppm) ** 2
+        for name, t, r, z, mat in frames:
+            ax.clear()
+            for i, mn in enumerate(mnames):
+                sel = mat == i
+                agg = mn == agg_name
+                ax.scatter(np.r_[r[sel], -r[sel]], np.r_[z[sel], z[sel]], s=size,
+                           c="k" if agg else f"C{i}", alpha=1 if agg else 0.6, lw=0, label=mn)
+            # the pounder in the frames of its impact stages: its base where pounder.csv has it then
+            if "impact" in name and pounder is not None and pd:
+                k = int(np.searchsorted(pounder["time_s"], t, side="right")) - 1
+                if k >= 0:
+                    zb, hb, hm = pounder["base_z_m"][k], pd["base_diameter"] / 2, pd["max_diameter"] / 2
+                    h = pd["height"]
+                    xs = [-hb, hb, hm, hb, -hb, -hm, -hb]
+                    ys = [zb, zb, zb + h / 2, zb + h, zb + h, zb + h / 2, zb]
+                    ax.fill(xs, ys, color="0.55", alpha=0.8, lw=0, label="pounder")
+            ax.axhline(ground, color="0.3", lw=0.8, ls="--", label="original ground")
+            lo, hi = meas["column_length"]
+            ax.axhspan(ground - hi, ground - lo, color="orange", alpha=0.2, label="lab column base")
+            lo, hi = meas["column_max_diameter"]
+            for sgn in (1, -1):
+                ax.axvspan(sgn * lo / 2, sgn * hi / 2, color="g", alpha=0.12, label="lab max diameter" if sgn > 0 else None)
+            ax.set_xlim(-rlim, rlim); ax.set_ylim(zs.min() - 0.02, ground + 0.15); ax.set_aspect("equal")
+            ax.set_xlabel("r, m (mirrored)"); ax.set_ylabel("z, m")
+            ax.set_title(f"{name[:-3]}  t = {t:.3f} s", fontsize=9)
+            ax.legend(fontsize=6, loc="lower right", markerscale=min(1.0, 4.0 / np.sqrt(size)))
+            writer.grab_frame()
+    plt.close(fig)
+    images.append((f"The column forming: {len(frames)} stages, one frame each (animated GIF)", "column-forming.gif"))
 
 # 4. Pounder base height and acceleration -------------------------------------------------
 if pounder is not None:

@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 #include <cmath>
+#include <cstdlib>
+#include <iterator>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -99,6 +101,22 @@ TEST_CASE("Drop sequence: the CI scenario writes every output with sane values, 
   for (const char* f : {"blows.csv", "column.csv", "summary.json", "tracers.csv", "pounder.csv", "energy.csv",
                         "stages.xdmf", "stages/000-relax.h5", "checkpoints/007-backfill-blow03.h5"})
     CHECK(fs::exists(fs::path(a) / f));
+
+  // The plot step: the report with whole counts, the figures and the animation of the column
+  // forming (one frame per stage file: 8 here).
+  {
+    std::ofstream(a + "/deck.toml") << tamp::to_toml(load_deck(deck_path));  // as `tamp run` writes it
+    const std::string cmd = std::string(TAMP_SOURCE_DIR) + "/scripts/plot-dr.py " + a + " > " + a + "/plot.log 2>&1";
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    for (const char* f : {"report.md", "column.png", "crater-depths.png", "column-forming.gif"})
+      CHECK(fs::exists(fs::path(a) / f));
+    std::ifstream in(a + "/report.md");
+    const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    CHECK(report.find("](column-forming.gif)") != std::string::npos);
+    CHECK(report.find("The column forming: 8 stages") != std::string::npos);
+    CHECK(report.find("696 particles") != std::string::npos);  // a count printed as a whole number (660 + the charge)
+    CHECK(report.find(".0 particles") == std::string::npos);
+  }
 
   // blows.csv: crater deeper after each blow (no backfill until blow 3), positive
   // penetration and deceleration, the charge after blow 3 only; every blow ended at rest in

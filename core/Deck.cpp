@@ -920,12 +920,72 @@ void apply_override(toml::table& root, const std::string& setting, const std::st
 
 }  // namespace
 
+namespace {
+std::string take_materials_from(toml::table& root, const std::string& file_label);
+}
+static Config parse_with(toml::table& root, const std::string& file_label, const std::vector<std::string>& overrides);
+
 Config parse_deck(const std::string& toml_text, const std::string& file_label,
                   const std::vector<std::string>& overrides) {
   toml::table root = parse_toml(toml_text, file_label, [&](auto line, auto column, const std::string& why) {
     throw DeckError(printable(file_label) + ": TOML syntax error at line " + std::to_string(line) + ", column " +
                     std::to_string(column) + ": " + why);
   });
+  const std::string from = take_materials_from(root, file_label);
+  if (!from.empty()) {  // a material's error names the file it is written in
+    try {
+      return parse_with(root, file_label, overrides);
+    } catch (const DeckError& e) {
+      const std::string what = e.what();
+      if (what.find("materials") == std::string::npos) throw;
+      throw DeckError(what + " (the materials are those of " + printable(from) + ")");
+    }
+  }
+  return parse_with(root, file_label, overrides);
+}
+
+namespace {
+// The deck's [[materials]] taken from another deck: `materials_from = "PATH"` (relative to the
+// deck's folder), so that decks share one set of materials (the CI scenario takes the lab
+// deck's). Returns the path read, or "" when the key is absent; the key is removed from root.
+std::string take_materials_from(toml::table& root, const std::string& file_label) {
+  const toml::node* node = root.get("materials_from");
+  if (!node) return "";
+  const auto* path = node->as_string();
+  if (!path)
+    throw DeckError(printable(file_label) + ": materials_from is not a string; allowed: the path of a deck whose "
+                    "[[materials]] this deck takes");
+  if (root.contains("materials"))
+    throw DeckError(printable(file_label) + ": materials_from = " + quote(path->get()) +
+                    " and [[materials]] both given; allowed: one of them");
+  namespace fs = std::filesystem;
+  fs::path from(path->get());
+  if (from.is_relative()) from = fs::path(file_label).parent_path() / from;
+  const std::string from_s = from.lexically_normal().string();
+  try {
+    require_regular_file(from_s, "deck file");
+  } catch (const DeckError& e) {
+    throw DeckError(printable(file_label) + ": materials_from = " + quote(path->get()) + ": " + e.what() +
+                    "; allowed: the path of a deck with [[materials]], relative to this deck's folder");
+  }
+  std::ifstream in(from_s, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  toml::table other = parse_toml(text.str(), from_s, [&](auto line, auto column, const std::string& why) {
+    throw DeckError(printable(from_s) + ": TOML syntax error at line " + std::to_string(line) + ", column " +
+                    std::to_string(column) + ": " + why);
+  });
+  const toml::node* mats = other.get("materials");
+  if (!mats || !mats->is_array())
+    throw DeckError(printable(file_label) + ": materials_from = " + quote(path->get()) +
+                    ": that deck has no [[materials]]; allowed: a deck with [[materials]]");
+  root.insert("materials", *mats->as_array());
+  root.erase("materials_from");
+  return from_s;
+}
+}  // namespace
+
+static Config parse_with(toml::table& root, const std::string& file_label, const std::vector<std::string>& overrides) {
   if (overrides.empty()) return build(root, file_label);
   for (const auto& o : overrides) apply_override(root, o, file_label);
   try {

@@ -569,6 +569,63 @@ TEST_CASE("Deck: load_deck reads a file and names it in errors", "[deck]") {
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("Deck: materials_from takes another deck's materials, and is refused with [[materials]] or a bad path",
+          "[deck]") {
+  const auto dir = temp_dir("materials_from");
+  const std::string source = (dir / "source.toml").string();
+  std::ofstream(source) << kValidDeck;
+  const Config want = tamp::load_deck(source);
+  auto deck_with = [&](const std::string& top_lines, bool own_materials) {
+    Parts p;
+    p.top = top_lines + "\n" + p.top;
+    if (!own_materials) p.materials = "";
+    p.blocks = "[[blocks]]\nmaterial = \"" + want.materials[0].name + "\"\nr = [0, 1]\nz = [0, 1]\n";
+    const std::string path = (dir / "deck.toml").string();
+    std::ofstream(path) << p.text();
+    return path;
+  };
+  SECTION("the materials are the other deck's, in its order, with --set applied to them") {
+    const Config c = tamp::load_deck(deck_with("materials_from = \"source.toml\"", false));
+    REQUIRE(c.materials.size() == want.materials.size());
+    for (size_t k = 0; k < c.materials.size(); ++k) {
+      CHECK(c.materials[k].name == want.materials[k].name);
+      CHECK(c.materials[k].shear_modulus == want.materials[k].shear_modulus);
+    }
+    const std::string name = want.materials[0].name;
+    const Config s = tamp::load_deck(deck_with("materials_from = \"source.toml\"", false), {name + ".G=7e6"});
+    CHECK(s.materials[0].shear_modulus == 7e6);
+  }
+  SECTION("refused: both given, a missing file, not a string") {
+    auto error_of = [&](const std::string& path) {
+      try {
+        tamp::load_deck(path);
+      } catch (const DeckError& e) {
+        return std::string(e.what());
+      }
+      return std::string();
+    };
+    CHECK_THAT(error_of(deck_with("materials_from = \"source.toml\"", true)),
+               Catch::Contains("materials_from = \"source.toml\" and [[materials]] both given; allowed: one of them"));
+    CHECK_THAT(error_of(deck_with("materials_from = \"nowhere.toml\"", false)),
+               Catch::Contains("materials_from = \"nowhere.toml\"") && Catch::Contains("does not exist"));
+    CHECK_THAT(error_of(deck_with("materials_from = 3", false)), Catch::Contains("materials_from is not a string"));
+  }
+  SECTION("a bad material in the other deck is reported with the file it is written in") {
+    std::string text = kValidDeck;
+    const size_t at = text.find("nu = 0.3");
+    REQUIRE(at != std::string::npos);
+    text.replace(at, 8, "nu = 0.7");
+    std::ofstream(source) << text;
+    try {
+      tamp::load_deck(deck_with("materials_from = \"source.toml\"", false));
+      FAIL("expected a DeckError");
+    } catch (const DeckError& e) {
+      CHECK_THAT(e.what(), Catch::Contains("nu") && Catch::Contains("(the materials are those of"));
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("Deck: non-reflecting boundaries parse and round-trip", "[deck]") {
   Parts p;
   p.rest = "[boundaries]\nbottom = { type = \"non-reflecting\", z = 0 }\nouter = { type = \"non-reflecting\", r = 1.0 }\n";

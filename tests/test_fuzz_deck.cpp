@@ -106,7 +106,8 @@ TEST_CASE("Fuzz: mutated decks are accepted or refused in one line, and never cr
     for (const auto& l : t) known_invalid = known_invalid || std::find(invalid_lines.begin(), invalid_lines.end(), l) != invalid_lines.end();
     std::ostringstream text;
     for (const auto& l : t) text << l << "\n";
-    const std::string label = "fuzz-" + std::to_string(c) + "-" + decks[d];
+    // in the decks' folder: a deck's materials_from is relative to it
+    const std::string label = dir + "fuzz-" + std::to_string(c) + "-" + decks[d];
     tamp::Config cfg;
     try {
       cfg = tamp::parse_deck(text.str(), label);

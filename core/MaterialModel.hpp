@@ -93,4 +93,9 @@ std::string material_model_names();
 // Kernel parameters of a deck material (throws std::invalid_argument for an unknown model).
 MaterialParams make_material(const MaterialSpec& spec);
 
+// The keys of every registered model as Markdown, from their declarations (key, unit, default,
+// allowed range, meaning, whether calibration may fit it; the history slots): `tamp keys`, and
+// the generated part of docs/input-deck.md (a test fails when the page is stale).
+std::string material_keys_markdown();
+
 }  // namespace tamp

@@ -2,6 +2,8 @@
 // material shares: density, G and nu, and the effect keys of models/Effects.hpp.
 #include "models/ModelList.hpp"
 
+#include "core/Format.hpp"
+
 #include <set>
 #include <stdexcept>
 
@@ -140,6 +142,35 @@ MaterialParams make_material(const MaterialSpec& s) {
     m.remoulding_strain = s.remoulding_strain;
   }
   return m;
+}
+
+std::string material_keys_markdown() {
+  auto row = [](const ModelKey& k) {
+    const std::string def = k.fallback ? fmt_num(*k.fallback) : std::string("**required**");
+    return "| `" + k.key + "` | " + (k.unit.empty() ? std::string("-") : k.unit) + " | " + def + " | `" +
+           k.range.text(k.key, "") + "` | " + k.meaning + (k.fittable ? "" : " (not fitted by the loop)") + " |\n";
+  };
+  const std::string head = "| key | unit | default | allowed | meaning |\n|---|---|---|---|---|\n";
+  std::string o = "Every material (any model):\n\n" + head;
+  for (const auto& k : common_material_keys()) o += row(k);
+  o += "\nThe effects (docs/effects.md), with the models that take them; each off at its default:\n\n" + head;
+  for (const auto& k : effect_material_keys()) o += row(k);
+  for (const auto& d : material_models()) {
+    o += "\n`model = \"" + d.name + "\"`: " + d.summary + (d.effects ? "; takes the effects" : "") + ".";
+    if (!d.history.empty()) {
+      o += " History slots:";
+      for (const auto& h : d.history) o += " `" + h.name + "` (" + h.meaning + ")";
+      o += ".";
+    }
+    o += "\n";
+    if (d.keys.empty()) {
+      o += "No keys of its own.\n";
+      continue;
+    }
+    o += "\n" + head;
+    for (const auto& k : d.keys) o += row(k);
+  }
+  return o;
 }
 
 }  // namespace tamp

@@ -60,6 +60,7 @@ std::unique_ptr<CommandLine> make_command_line() {
   c.run->add_flag("--forward", c.forward, "A forward run of calibrate/diagnose: quiet, no per-stage snapshots or checkpoints")
       ->group("");  // internal
   c.run->add_flag("--profile", c.profile, "Time each part of the step (fences between parts) and write profile.csv");
+  c.keys = c.app.add_subcommand("keys", "Print the material keys of every model (unit, default, range, meaning) as Markdown");
   c.check = c.app.add_subcommand("check", "Validate a deck and print what it would run");
   c.check->add_option("deck", c.deck, "Input deck (TOML)")->required();
   c.check->add_option("--set", c.sets, "Override a deck value, as for run: KEY=VALUE, e.g. sph.spacing=0.005 (KEY= removes the key)");

@@ -24,7 +24,7 @@ const std::vector<NumericOption>& numeric_options();
 struct CommandLine {
   CLI::App app{"Tamp: particle simulation of dynamic replacement (axisymmetric SPH for soils)"};
   CLI::App *run = nullptr, *check = nullptr, *compare = nullptr, *calibrate = nullptr, *diagnose = nullptr,
-           *synth = nullptr;
+           *synth = nullptr, *keys = nullptr;
   std::string deck, out, restart;
   int stop_after = -1;
   std::vector<std::string> sets;

@@ -501,6 +501,7 @@ int main(int argc, char** argv) {
   try {
     if (*c.run) rc = cmd_run(c.deck, c.out, c.force, c.restart, c.stop_after, c.sets, c.profile, c.forward);
     if (*c.check) rc = cmd_check(c.deck, c.sets);
+    if (*c.keys) std::fputs(tamp::material_keys_markdown().c_str(), stdout);
     if (*c.compare) rc = cmd_compare(c.data_path, c.run_dir);
     if (*c.calibrate) rc = cmd_calibrate(c.data_path, c.sets, c.params, c.out, c.force, c.iterations, c.method, c.jobs, c.resume, c.cheap, c.engine);
     if (*c.diagnose)

@@ -339,17 +339,6 @@ class FemModel {
     forces_valid_ = false;
   }
 
-  void set_element_stress(const std::vector<double>& s) {
-    if (s.size() != 4 * static_cast<size_t>(mesh_.n_elements))
-      throw std::invalid_argument("FemModel::set_element_stress: size");
-    auto s_h = Kokkos::create_mirror_view(mesh_.stress);
-    for (int e = 0; e < mesh_.n_elements; ++e)
-      for (int c = 0; c < 4; ++c) s_h(e, c) = s[4 * e + c];
-    Kokkos::deep_copy(mesh_.stress, s_h);
-    forces_valid_ = false;
-  }
-  // Centre (r, z) of element e's grid cell in the reference configuration, m.
-  double element_r0(int e) const { return 0.5 * (grid_.r[element_i(e)] + grid_.r[element_i(e) + 1]); }
 
   // Clock of a restored state (checkpoints): the time, steps and the last step; the forces
   // are recomputed from the restored stresses and positions before the next step.
